@@ -1,0 +1,145 @@
+//! The pinhole camera.
+//!
+//! ```toml
+//! [camera]
+//! position = [0, 0, 0]
+//! look_at = [0, 0, -1]
+//! up = [0, 1, 0]
+//! fov = 43.6028   # vertical field of view, degrees
+//! width = 800
+//! height = 800
+//! ```
+
+use crate::math::{Ray, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in degrees.
+    pub fov: f32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Why a camera cannot be built; the scene loader adds file positions.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum CameraError {
+    #[error("look_at is the camera position: no viewing direction")]
+    ZeroDirection,
+    #[error("up is zero or parallel to the viewing direction")]
+    BadUp,
+    #[error("field of view must be in (0, 180) degrees")]
+    BadFov,
+}
+
+/// A camera with its frame precomputed, ready to generate rays.
+#[derive(Clone, Copy, Debug)]
+pub struct CameraRig {
+    origin: Vec3,
+    /// Image-plane vectors at unit distance: one pixel step to the right and downwards.
+    pixel_dx: Vec3,
+    pixel_dy: Vec3,
+    /// Direction through the top-left corner of the image.
+    corner: Vec3,
+}
+
+impl Camera {
+    pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fov: f32, width: u32, height: u32) -> Self {
+        Camera {
+            position,
+            look_at,
+            up,
+            fov,
+            width,
+            height,
+        }
+    }
+
+    pub fn rig(&self) -> Result<CameraRig, CameraError> {
+        let forward = self.look_at - self.position;
+        if !(forward.length_squared() > 0.0) {
+            return Err(CameraError::ZeroDirection);
+        }
+        let w = forward.normalize();
+        let right = w.cross(self.up);
+        if !(right.length_squared() > 1e-12 * self.up.length_squared()) || self.up == Vec3::ZERO {
+            return Err(CameraError::BadUp);
+        }
+        if !(self.fov > 0.0 && self.fov < 180.0) {
+            return Err(CameraError::BadFov);
+        }
+        let u = right.normalize();
+        let v = u.cross(w);
+        let half_h = (self.fov.to_radians() * 0.5).tan();
+        let half_w = half_h * self.width as f32 / self.height as f32;
+        let pixel_dx = u * (2.0 * half_w / self.width as f32);
+        let pixel_dy = -v * (2.0 * half_h / self.height as f32);
+        Ok(CameraRig {
+            origin: self.position,
+            pixel_dx,
+            pixel_dy,
+            corner: w - half_w * u + half_h * v,
+        })
+    }
+}
+
+impl CameraRig {
+    /// The ray through image position (`x`, `y`) in pixels, (0, 0) the top-left corner
+    /// of the image and (width, height) the bottom-right one.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> Ray {
+        Ray::new(self.origin, self.corner + x * self.pixel_dx + y * self.pixel_dy)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera::new(
+            Vec3::ZERO,
+            Vec3::NEG_Z,
+            Vec3::Y,
+            2.0 * (10.0f32 / 25.0).atan().to_degrees(),
+            800,
+            800,
+        )
+    }
+
+    #[test]
+    fn centre_ray_looks_at_target() {
+        let r = cam().rig().unwrap().ray(400.0, 400.0);
+        assert!((r.dir - Vec3::NEG_Z).length() < 1e-6);
+    }
+
+    #[test]
+    fn corners_span_the_seed_image_plane() {
+        // The seed's image plane at distance 25 spans [-10, 10] both ways.
+        let rig = cam().rig().unwrap();
+        let tl = rig.ray(0.0, 0.0).dir;
+        let p = tl * (25.0 / -tl.z);
+        assert!((p - Vec3::new(-10.0, 10.0, -25.0)).length() < 1e-3, "{p}");
+        let br = rig.ray(800.0, 800.0).dir;
+        let p = br * (25.0 / -br.z);
+        assert!((p - Vec3::new(10.0, -10.0, -25.0)).length() < 1e-3, "{p}");
+    }
+
+    #[test]
+    fn degenerate_cameras_are_errors() {
+        let mut c = cam();
+        c.look_at = c.position;
+        assert_eq!(c.rig().unwrap_err(), CameraError::ZeroDirection);
+        let mut c = cam();
+        c.up = Vec3::NEG_Z * 3.0;
+        assert_eq!(c.rig().unwrap_err(), CameraError::BadUp);
+        let mut c = cam();
+        c.up = Vec3::ZERO;
+        assert_eq!(c.rig().unwrap_err(), CameraError::BadUp);
+        let mut c = cam();
+        c.fov = 180.0;
+        assert_eq!(c.rig().unwrap_err(), CameraError::BadFov);
+    }
+}

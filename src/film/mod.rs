@@ -1,0 +1,167 @@
+//! The image being made, and writing it out.
+
+use crate::math::Color;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// A rendered picture in linear colour, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    width: u32,
+    height: u32,
+    pixels: Vec<Color>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum OutputError {
+    #[error("{path}: only PNG output is supported (give the file a .png extension)")]
+    NotPng { path: PathBuf },
+    #[error("{path}: cannot write the image: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+    #[error("{path}: cannot encode the image: {source}")]
+    Encode { path: PathBuf, source: image::ImageError },
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        Image {
+            width,
+            height,
+            pixels: vec![Color::ZERO; width as usize * height as usize],
+        }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+
+    pub fn pixel(&self, x: u32, y: u32) -> Color {
+        self.pixels[y as usize * self.width as usize + x as usize]
+    }
+
+    pub fn set(&mut self, x: u32, y: u32, c: Color) {
+        self.pixels[y as usize * self.width as usize + x as usize] = c;
+    }
+
+    /// 8-bit RGB, clamped, without gamma: the original wrote its colours to the screen
+    /// as they were, and the POV-Ray reference does the same (`File_Gamma=1.0`).
+    pub fn to_rgb8(&self) -> image::RgbImage {
+        let mut out = image::RgbImage::new(self.width, self.height);
+        for (dst, c) in out.pixels_mut().zip(&self.pixels) {
+            let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+            *dst = image::Rgb([q(c.x), q(c.y), q(c.z)]);
+        }
+        out
+    }
+}
+
+/// A PNG file written whole or not at all: the data goes to a temporary file beside the
+/// target, which is renamed over it only once complete, so a failed or interrupted
+/// render never leaves a half-written image or clobbers a good one (the temporary file
+/// is removed when this is dropped uncommitted).
+pub struct PendingOutput {
+    path: PathBuf,
+    temp: tempfile::NamedTempFile,
+}
+
+impl PendingOutput {
+    /// Checks up front that `path` can be written (before spending time rendering).
+    pub fn create(path: &Path) -> Result<Self, OutputError> {
+        let is_png = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        if !is_png {
+            return Err(OutputError::NotPng { path: path.to_owned() });
+        }
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        let temp = tempfile::Builder::new()
+            .prefix(".whitted-")
+            .suffix(".png.tmp")
+            .tempfile_in(dir)
+            .map_err(|source| OutputError::Io {
+                path: path.to_owned(),
+                source,
+            })?;
+        Ok(PendingOutput {
+            path: path.to_owned(),
+            temp,
+        })
+    }
+
+    /// Encodes `image` into the temporary file, syncs it and renames it into place.
+    pub fn commit(mut self, image: &Image) -> Result<(), OutputError> {
+        let path = self.path;
+        let io_err = |source| OutputError::Io {
+            path: path.clone(),
+            source,
+        };
+        {
+            let mut w = std::io::BufWriter::new(self.temp.as_file_mut());
+            image
+                .to_rgb8()
+                .write_to(&mut w, image::ImageFormat::Png)
+                .map_err(|source| OutputError::Encode {
+                    path: path.clone(),
+                    source,
+                })?;
+            w.flush().map_err(io_err)?;
+        }
+        self.temp.as_file().sync_all().map_err(io_err)?;
+        self.temp.persist(&path).map_err(|e| io_err(e.error))?;
+        Ok(())
+    }
+}
+
+/// Writes `image` to `path` atomically.
+pub fn write_png(image: &Image, path: &Path) -> Result<(), OutputError> {
+    PendingOutput::create(path)?.commit(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn write_is_atomic_and_leaves_no_temp_files() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("a.png");
+        let mut img = Image::new(4, 3);
+        img.set(1, 1, Color::new(1.0, 0.5, 0.0));
+        write_png(&img, &out).unwrap();
+        let back = image::open(&out).unwrap().to_rgb8();
+        assert_eq!(back.get_pixel(1, 1).0, [255, 128, 0]);
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn abandoned_output_removes_its_temp_and_keeps_the_old_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let out = dir.path().join("keep.png");
+        std::fs::write(&out, b"good").unwrap();
+        let pending = PendingOutput::create(&out).unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        drop(pending); // the render failed
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        assert_eq!(std::fs::read(&out).unwrap(), b"good");
+    }
+
+    #[test]
+    fn unwritable_and_non_png_paths_are_refused_up_front() {
+        assert!(matches!(
+            PendingOutput::create(Path::new("/nonexistent-dir/x.png")),
+            Err(OutputError::Io { .. })
+        ));
+        assert!(matches!(
+            PendingOutput::create(Path::new("x.jpg")),
+            Err(OutputError::NotPng { .. })
+        ));
+    }
+}

@@ -1,0 +1,491 @@
+use super::{Hit, Nearest, Surface, disc_bounds, part, turn_fraction};
+use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis};
+
+/// Finite right circular cone: a disc of `radius` at `base`, narrowing linearly to the
+/// apex at `base + axis * height`. Only that nappe exists, never its mirror image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    pub base: Vec3,
+    /// Unit length (normalised by [`Cone::new`]).
+    pub axis: Vec3,
+    pub radius: f32,
+    pub height: f32,
+    pub cap: bool,
+}
+
+impl Cone {
+    /// A zero `axis` falls back to +y rather than turning every later hit into NaN.
+    pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32, cap: bool) -> Self {
+        Cone {
+            base,
+            axis: axis.normalize_or(Vec3::Y),
+            radius,
+            height,
+            cap,
+        }
+    }
+
+    pub fn apex(&self) -> Vec3 {
+        self.base + self.height * self.axis
+    }
+
+    /// Nearest of the slanted side and (with `cap`) the base disc. Boundaries are
+    /// inclusive: tangent rays, the rim and the apex count as hits when the arithmetic
+    /// lands on them. A ray parallel to the base plane never hits the cap.
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let o = ray.origin - self.apex();
+        let da = ray.dir.dot(self.axis);
+        let d_perp = ray.dir - da * self.axis;
+        let mut best = Nearest::new(t_min, t_max);
+
+        // Side: |w_perp|² = k² (w·axis)² with w relative to the apex. Solved from the
+        // ray's point of closest approach to the apex rather than its origin: the
+        // coefficients are then as small as the geometry allows, which keeps b² - a c
+        // from cancelling for far cameras and for rays skimming the apex.
+        let t0 = -o.dot(ray.dir);
+        let o0 = o + t0 * ray.dir;
+        let oa0 = o0.dot(self.axis);
+        let o_perp = o0 - oa0 * self.axis;
+        let k = self.radius / self.height;
+        let k2 = k * k;
+        let a = d_perp.length_squared() - k2 * da * da;
+        let b = o_perp.dot(d_perp) - k2 * oa0 * da;
+        let c = o_perp.length_squared() - k2 * oa0 * oa0;
+        let disc = b * b - a * c;
+        if disc >= 0.0 {
+            let q = -(b + disc.sqrt().copysign(b));
+            // a ≈ 0 when the ray is parallel to a generator line: the quadratic becomes
+            // linear, c / q is then its root and q / a (the root that went to infinity)
+            // is skipped instead of being divided out.
+            let far = if a != 0.0 { q / a } else { f32::NAN };
+            for dt in [c / q, far] {
+                let t = t0 + dt;
+                if best.improves(t) {
+                    // Between base (-height) and apex (0): excludes the mirror nappe.
+                    let s = oa0 + dt * da;
+                    if (-self.height..=0.0).contains(&s) {
+                        best.take(t, part::SIDE);
+                    }
+                }
+            }
+        }
+
+        if self.cap && da != 0.0 {
+            let oa = o.dot(self.axis);
+            let t = (-self.height - oa) / da;
+            if best.improves(t) {
+                let radial = (o - oa * self.axis) + t * d_perp;
+                if radial.length_squared() <= self.radius * self.radius {
+                    best.take(t, part::BASE_CAP);
+                }
+            }
+        }
+        best.hit()
+    }
+
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let local = ray.at(hit.t) - self.base;
+        let h = local.dot(self.axis);
+        let radial = local - h * self.axis;
+        let (e1, e2) = orthonormal_basis(self.axis);
+        let u = turn_fraction(radial, e1, e2);
+        if hit.part == part::BASE_CAP {
+            let rho = if self.radius > 0.0 {
+                (radial.length() / self.radius).min(1.0)
+            } else {
+                0.0
+            };
+            return Surface {
+                point: self.base + radial,
+                normal: -self.axis,
+                uv: Vec2::new(u, rho),
+            };
+        }
+        let out = radial.normalize_or_zero();
+        // Perpendicular to the generator (height·axis - radius·out) in the plane of the
+        // axis; at the apex, where `out` is undefined, it degrades to the axis.
+        let normal = (self.height * out + self.radius * self.axis).normalize_or(self.axis);
+        let v = if self.height > 0.0 {
+            (h / self.height).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        // Snapped radially onto the side so secondary rays start on the surface.
+        let rho = self.radius * (1.0 - v);
+        Surface {
+            point: self.base + h * self.axis + rho * out,
+            normal,
+            uv: Vec2::new(u, v),
+        }
+    }
+
+    /// The base disc's box grown to the apex.
+    pub fn bounds(&self) -> Aabb {
+        disc_bounds(self.base, self.axis, self.radius).grow(self.apex())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::test_util::{Rng, assert_close, assert_vec_close};
+    use crate::math::{reflect, surface_offset};
+
+    /// Base disc of radius 1 at y = -1, apex at y = 1, around x = 0, z = -5: the side's
+    /// radius at height y is (1 - y) / 2.
+    fn upright(cap: bool) -> Cone {
+        Cone::new(Vec3::new(0.0, -1.0, -5.0), Vec3::Y, 1.0, 2.0, cap)
+    }
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d))
+    }
+
+    fn hit(c: &Cone, r: &Ray) -> (Hit, Surface) {
+        let h = c.intersect(r, 0.0, f32::INFINITY).expect("expected a hit");
+        (h, c.surface(r, &h))
+    }
+
+    fn side_normal(out: Vec3) -> Vec3 {
+        // height 2, radius 1: normalize(2 out + axis).
+        (2.0 * out + Vec3::Y).normalize()
+    }
+
+    #[test]
+    fn side_hit_from_outside() {
+        let c = upright(true);
+        let (h, s) = hit(&c, &ray([0.0, 0.0, 0.0], [0.0, 0.0, -1.0]));
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 4.5, 1e-5);
+        assert_vec_close(s.normal, Vec3::new(0.0, 1.0, 2.0) / 5.0f32.sqrt(), 1e-5);
+        assert_vec_close(s.point, Vec3::new(0.0, 0.0, -4.5), 1e-5);
+        assert_close(s.uv.y, 0.5, 1e-5);
+    }
+
+    #[test]
+    fn from_inside_hits_far_side() {
+        let c = upright(true);
+        let (h, s) = hit(&c, &ray([0.0, -0.5, -5.0], [1.0, 0.0, 0.0]));
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 0.75, 1e-5);
+        assert_vec_close(s.normal, side_normal(Vec3::X), 1e-5);
+    }
+
+    #[test]
+    fn from_inside_hits_base_cap() {
+        let c = upright(true);
+        let (h, s) = hit(&c, &ray([0.1, -0.5, -5.0], [0.0, -1.0, 0.0]));
+        assert_eq!(h.part, part::BASE_CAP);
+        assert_close(h.t, 0.5, 1e-5);
+        assert_vec_close(s.normal, -Vec3::Y, 1e-6);
+    }
+
+    #[test]
+    fn grazing_side_conventions() {
+        let c = upright(true);
+        let down = [0.0, 0.0, -1.0];
+        // At y = 0 the side's radius is 0.5.
+        assert_eq!(
+            c.intersect(&ray([0.5 + 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY),
+            None
+        );
+        let (h, s) = hit(&c, &ray([0.5 - 1e-3, 0.0, 0.0], down));
+        assert_close(h.t, 5.0 - (0.25f32 - 0.499 * 0.499).sqrt(), 2e-4);
+        assert!(s.normal.is_finite());
+        // Over the rim, just outside the base disc, parallel to it: miss, no NaN.
+        assert_eq!(c.intersect(&ray([0.0, -1.001, 0.0], down), 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn mirror_nappe_is_not_hit() {
+        let c = upright(true);
+        // At y = 2 the mirror cone above the apex would have radius 0.5.
+        assert_eq!(
+            c.intersect(&ray([0.0, 2.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
+            None
+        );
+        assert_eq!(
+            c.intersect(&ray([0.2, 1.5, -5.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
+            None
+        );
+    }
+
+    #[test]
+    fn cone_behind_origin_is_missed() {
+        for cap in [false, true] {
+            let c = upright(cap);
+            assert_eq!(
+                c.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY),
+                None
+            );
+            assert_eq!(
+                c.intersect(&ray([0.0, 5.0, -5.0], [0.0, 1.0, 0.0]), 0.0, f32::INFINITY),
+                None
+            );
+        }
+    }
+
+    #[test]
+    fn respects_t_max() {
+        let c = upright(true);
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        assert_eq!(c.intersect(&r, 0.0, 4.49), None);
+        assert!(c.intersect(&r, 0.0, 4.51).is_some());
+        assert_close(c.intersect(&r, 4.6, f32::INFINITY).unwrap().t, 5.5, 1e-5);
+    }
+
+    #[test]
+    fn side_nearer_than_base_cap_wins() {
+        // Down at 45° from the left: side at y = -2/3, then the cap at y = -1 (x = -0.5).
+        let c = upright(true);
+        let r = ray([-1.5, 0.0, -5.0], [1.0, -1.0, 0.0]);
+        let (h, s) = hit(&c, &r);
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 2.0f32.sqrt() * 2.0 / 3.0, 1e-5);
+        assert_vec_close(s.normal, side_normal(-Vec3::X), 1e-5);
+        let h = c.intersect(&r, 1.0, f32::INFINITY).unwrap();
+        assert_eq!(h.part, part::BASE_CAP);
+        assert_close(h.t, 2.0f32.sqrt(), 1e-5);
+    }
+
+    #[test]
+    fn base_cap_nearer_than_side_wins() {
+        // From below, slightly slanted: the cap at x = -0.6 first, then the side inside.
+        let c = upright(true);
+        let r = ray([-0.8, -3.0, -5.0], [0.1, 1.0, 0.0]);
+        let (h, s) = hit(&c, &r);
+        assert_eq!(h.part, part::BASE_CAP);
+        assert_close(h.t, 2.0 * 1.01f32.sqrt(), 1e-5);
+        assert_vec_close(s.normal, -Vec3::Y, 1e-6);
+        // Without the cap the side is hit from inside, normal still outward.
+        let (h, s) = hit(&upright(false), &r);
+        assert_eq!(h.part, part::SIDE);
+        assert!(h.t > 2.0 * 1.01f32.sqrt());
+        assert!(s.normal.x < 0.0 && s.normal.y > 0.0);
+    }
+
+    #[test]
+    fn along_axis_from_above_and_below() {
+        let c = upright(true);
+        // From above, exactly on the axis: the apex itself, normal along the axis.
+        let (h, s) = hit(&c, &ray([0.0, 5.0, -5.0], [0.0, -1.0, 0.0]));
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 4.0, 1e-4);
+        assert_vec_close(s.normal, Vec3::Y, 1e-5);
+        // From above, just off the axis: the side right under the apex.
+        let (h, _) = hit(&c, &ray([0.01, 5.0, -5.0], [0.0, -1.0, 0.0]));
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 4.02, 1e-4);
+        // From below: the base cap.
+        let (h, s) = hit(&c, &ray([0.0, -5.0, -5.0], [0.0, 1.0, 0.0]));
+        assert_eq!(h.part, part::BASE_CAP);
+        assert_close(h.t, 4.0, 1e-5);
+        assert_vec_close(s.normal, -Vec3::Y, 1e-6);
+        // From below without the cap: up the inside to the apex.
+        let (h, _) = hit(&upright(false), &ray([0.0, -5.0, -5.0], [0.0, 1.0, 0.0]));
+        assert_close(h.t, 6.0, 1e-4);
+    }
+
+    #[test]
+    fn rays_near_the_apex() {
+        let c = upright(true);
+        // At y = 0.99 the radius is 0.005.
+        let (h, s) = hit(&c, &ray([0.0, 0.99, 0.0], [0.0, 0.0, -1.0]));
+        assert_close(h.t, 4.995, 2e-5);
+        assert_vec_close(s.normal, side_normal(Vec3::Z), 1e-4);
+        // Tangent-ish and just above the apex: miss.
+        assert_eq!(
+            c.intersect(&ray([0.006, 0.99, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
+            None
+        );
+        assert_eq!(
+            c.intersect(&ray([0.0, 1.001, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
+            None
+        );
+        // Steeply from far away, aimed just under the apex: enters the side right there.
+        let from = Vec3::new(3.0, 21.0, -5.0);
+        let r = Ray::new(from, Vec3::new(0.0, 0.99, -5.0) - from);
+        let (h, s) = hit(&c, &r);
+        assert_eq!(h.part, part::SIDE);
+        let p = r.at(h.t);
+        assert!((p - c.apex()).length() < 0.02, "{p}");
+        assert_close(Vec2::new(p.x, p.z + 5.0).length(), (1.0 - p.y) / 2.0, 1e-4);
+        assert!(s.normal.x > 0.0 && s.normal.y > 0.0);
+    }
+
+    #[test]
+    fn ray_parallel_to_a_generator_line() {
+        // Direction (-1, 2) is parallel to the right-hand generator, so a ≈ 0.
+        let c = upright(true);
+        let d = [-1.0, 2.0, 0.0];
+        // Along x = -y / 2 from below: the base cap at (0.5, -1).
+        let (h, _) = hit(&c, &ray([1.5, -3.0, -5.0], d));
+        assert_eq!(h.part, part::BASE_CAP);
+        assert_close(h.t, 5.0f32.sqrt(), 1e-5);
+        // Open cone: up the inside to the left wall at (-0.25, 0.5).
+        let (h, s) = hit(&upright(false), &ray([1.5, -3.0, -5.0], d));
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 1.75 * 5.0f32.sqrt(), 1e-4);
+        assert_vec_close(s.point, Vec3::new(-0.25, 0.5, -5.0), 1e-4);
+        // Coming down the same line from above: the left wall from outside.
+        let (h, _) = hit(&c, &ray([-1.5, 3.0, -5.0], [1.0, -2.0, 0.0]));
+        assert_eq!(h.part, part::SIDE);
+        assert_close(h.t, 1.25 * 5.0f32.sqrt(), 1e-4);
+        // Parallel and outside, to the right: nothing.
+        assert_eq!(c.intersect(&ray([3.0, -3.0, -5.0], d), 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn offset_rays_do_not_hit_again() {
+        let c = Cone::new(Vec3::new(2.0, -1.0, -20.0), Vec3::new(0.3, 1.0, 0.2), 1.5, 3.0, true);
+        let b = c.bounds();
+        let mut rng = Rng::new(23);
+        let mut hits = 0;
+        for _ in 0..1000 {
+            let origin = rng.in_box(Vec3::splat(-10.0), Vec3::splat(10.0));
+            let r = Ray::new(origin, rng.in_box(b.min, b.max) - origin);
+            let Some(h) = c.intersect(&r, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            hits += 1;
+            let s = c.surface(&r, &h);
+            let eps = surface_offset(s.point);
+            let bounce = Ray::new(s.point + eps * s.normal, reflect(r.dir, s.normal));
+            assert_eq!(c.intersect(&bounce, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
+            let inner = Ray::new(s.point - eps * s.normal, r.dir);
+            let Some(exit_hit) = c.intersect(&inner, 0.0, f32::INFINITY) else {
+                // Only a hit right at the apex or rim can leave the solid at once.
+                assert!(s.uv.y > 0.999 || s.uv.y < 1e-3, "{r:?} {h:?}");
+                continue;
+            };
+            let exit = c.surface(&inner, &exit_hit);
+            let out = Ray::new(exit.point + surface_offset(exit.point) * exit.normal, r.dir);
+            assert_eq!(c.intersect(&out, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
+        }
+        assert!(hits > 300);
+    }
+
+    #[test]
+    fn bounds_are_tight_and_contain_the_surface() {
+        let b = upright(true).bounds();
+        assert_vec_close(b.min, Vec3::new(-1.0, -1.0, -6.0), 1e-6);
+        assert_vec_close(b.max, Vec3::new(1.0, 1.0, -4.0), 1e-6);
+        // Pointing down: the box reaches down to the apex, not up from it.
+        let down = Cone::new(Vec3::ZERO, -Vec3::Y, 1.0, 3.0, true).bounds();
+        assert_vec_close(down.min, Vec3::new(-1.0, -3.0, -1.0), 1e-6);
+        assert_vec_close(down.max, Vec3::new(1.0, 0.0, 1.0), 1e-6);
+
+        let c = Cone::new(Vec3::new(1.0, 2.0, 3.0), Vec3::new(1.0, -2.0, -0.5), 0.7, 2.5, true);
+        let b = c.bounds();
+        let (e1, e2) = orthonormal_basis(c.axis);
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for i in 0..360 {
+            let a = std::f32::consts::TAU * i as f32 / 360.0;
+            for j in 0..=10 {
+                let f = j as f32 / 10.0;
+                let p = c.base + f * c.height * c.axis + (1.0 - f) * c.radius * (a.cos() * e1 + a.sin() * e2);
+                assert!(
+                    p.cmpge(b.min - 1e-5).all() && p.cmple(b.max + 1e-5).all(),
+                    "{p} outside {b:?}"
+                );
+                lo = lo.min(p);
+                hi = hi.max(p);
+            }
+        }
+        assert_vec_close(lo, b.min, 1e-3);
+        assert_vec_close(hi, b.max, 1e-3);
+    }
+
+    #[test]
+    fn uv_stays_in_unit_square() {
+        let c = upright(true);
+        let b = c.bounds();
+        let mut rng = Rng::new(8);
+        for _ in 0..1000 {
+            let r = rng.ray(b.min, b.max, 2.0);
+            if let Some(h) = c.intersect(&r, 0.0, f32::INFINITY) {
+                let uv = c.surface(&r, &h).uv;
+                assert!((0.0..=1.0).contains(&uv.x) && (0.0..=1.0).contains(&uv.y), "{uv}");
+            }
+        }
+    }
+
+    /// Inside/outside sign with a magnitude never above the true distance.
+    fn sdf(c: &Cone, p: Vec3) -> f32 {
+        let local = p - c.base;
+        let h = local.dot(c.axis);
+        let rho = (local - h * c.axis).length();
+        let cos = c.height / c.height.hypot(c.radius);
+        let side = (rho - c.radius * (1.0 - h / c.height)) * cos;
+        side.max((-h).max(h - c.height))
+    }
+
+    fn random_rays(cap: bool, seed: u64) {
+        let c = Cone::new(Vec3::new(0.3, -0.7, 0.5), Vec3::new(0.2, 1.0, -0.4), 0.9, 1.6, cap);
+        let b = c.bounds();
+        let mut rng = Rng::new(seed);
+        let tol = 1e-3 * c.radius.max(c.height);
+        let mut hits = 0;
+        for _ in 0..4000 {
+            let r = rng.ray(b.min, b.max, 2.5);
+            let t_min = if rng.unit() < 0.5 { 0.0 } else { rng.range(0.0, 2.0) };
+            let t_max = if rng.unit() < 0.5 {
+                f32::INFINITY
+            } else {
+                t_min + rng.range(0.0, 8.0)
+            };
+            let Some(h) = c.intersect(&r, t_min, t_max) else {
+                if cap {
+                    assert_no_crossing(&c, &r, t_min, t_max.min(t_min + 20.0));
+                }
+                continue;
+            };
+            hits += 1;
+            assert!(h.t > t_min && h.t < t_max, "t {} outside ({t_min}, {t_max})", h.t);
+            let p = r.at(h.t);
+            let local = p - c.base;
+            let height = local.dot(c.axis);
+            let rho = (local - height * c.axis).length();
+            match h.part {
+                part::SIDE => {
+                    let expected = c.radius * (1.0 - height / c.height);
+                    assert!((rho - expected).abs() < tol, "{p} off the side");
+                    assert!(height > -tol && height < c.height + tol, "{p} off the nappe");
+                }
+                part::BASE_CAP => assert!(height.abs() < tol && rho < c.radius + tol),
+                _ => panic!("unexpected part {}", h.part),
+            }
+            let s = c.surface(&r, &h);
+            assert_close(s.normal.length(), 1.0, 1e-4);
+            assert!((s.point - p).length() < tol);
+            if cap {
+                assert_no_crossing(&c, &r, t_min, h.t);
+            }
+        }
+        assert!(hits > 1000, "only {hits} hits");
+    }
+
+    fn assert_no_crossing(c: &Cone, r: &Ray, t0: f32, t1: f32) {
+        let start = sdf(c, r.at(t0));
+        if start.abs() < 1e-3 {
+            return;
+        }
+        for k in 1..64 {
+            let t = t0 + (t1 - t0) * k as f32 / 64.0;
+            assert!(
+                sdf(c, r.at(t)) * start.signum() > -1e-3,
+                "skipped a crossing at {t} before {t1}: {r:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn random_rays_hit_on_surface_and_first_with_cap() {
+        random_rays(true, 0xC0DE);
+    }
+
+    #[test]
+    fn random_rays_hit_on_surface_open_cone() {
+        random_rays(false, 0xFACE);
+    }
+}

@@ -1,0 +1,248 @@
+use super::{Hit, Surface, part};
+use crate::math::{Aabb, Ray, Vec2, Vec3};
+use std::f32::consts::{FRAC_1_PI, PI};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl Sphere {
+    pub fn new(center: Vec3, radius: f32) -> Self {
+        Sphere { center, radius }
+    }
+
+    /// A ray exactly tangent to the sphere (discriminant 0) counts as a hit.
+    pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        // Ray Tracing Gems ch. 7: with |d| = 1, the discriminant r² - |oc - b d|² does not
+        // suffer the cancellation of b² - c when the sphere is small and far away, and
+        // q = -(b + sign(b) √disc) keeps the near root accurate.
+        let oc = ray.origin - self.center;
+        let b = oc.dot(ray.dir);
+        let r2 = self.radius * self.radius;
+        let perp = oc - b * ray.dir;
+        let disc = r2 - perp.length_squared();
+        if disc < 0.0 {
+            return None;
+        }
+        let c = oc.length_squared() - r2;
+        let q = -(b + disc.sqrt().copysign(b));
+        let (t0, t1) = (c / q, q);
+        let (near, far) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+        // Comparisons written so that a NaN root (q = 0) is rejected.
+        let t = if near > t_min && near < t_max {
+            near
+        } else if far > t_min && far < t_max {
+            far
+        } else {
+            return None;
+        };
+        Some(Hit {
+            t,
+            uv: Vec2::ZERO,
+            part: part::SIDE,
+        })
+    }
+
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        let normal = (ray.at(hit.t) - self.center).normalize_or(Vec3::Y);
+        // Snapped back onto the sphere so that secondary rays start from the surface and
+        // not from wherever the rounding of `origin + t dir` put them.
+        let point = self.center + self.radius * normal;
+        let u = 0.5 + normal.x.atan2(normal.z) * (0.5 * FRAC_1_PI);
+        let v = 0.5 - normal.y.clamp(-1.0, 1.0).asin() / PI;
+        Surface {
+            point,
+            normal,
+            uv: Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)),
+        }
+    }
+
+    pub fn bounds(&self) -> Aabb {
+        let r = Vec3::splat(self.radius.abs());
+        Aabb {
+            min: self.center - r,
+            max: self.center + r,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::test_util::{Rng, assert_close, assert_vec_close};
+    use crate::math::{reflect, surface_offset};
+
+    fn unit_sphere_ahead() -> Sphere {
+        Sphere::new(Vec3::new(0.0, 0.0, -5.0), 1.0)
+    }
+
+    fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
+        Ray::new(Vec3::from(o), Vec3::from(d))
+    }
+
+    #[test]
+    fn hit_from_outside_head_on() {
+        let s = unit_sphere_ahead();
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        let h = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_close(h.t, 4.0, 1e-5);
+        let surf = s.surface(&r, &h);
+        assert_vec_close(surf.normal, Vec3::Z, 1e-5);
+        assert_vec_close(surf.point, Vec3::new(0.0, 0.0, -4.0), 1e-5);
+    }
+
+    #[test]
+    fn hit_from_outside_off_center() {
+        // x = 0.6 meets the sphere at z = -5 + 0.8: t = 4.2, normal (0.6, 0, 0.8).
+        let s = unit_sphere_ahead();
+        let r = ray([0.6, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        let h = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_close(h.t, 4.2, 1e-5);
+        assert_vec_close(s.surface(&r, &h).normal, Vec3::new(0.6, 0.0, 0.8), 1e-5);
+    }
+
+    #[test]
+    fn hit_from_inside_reaches_far_wall() {
+        let s = unit_sphere_ahead();
+        let r = ray([0.0, 0.0, -5.5], [0.0, 0.0, -1.0]);
+        let h = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_close(h.t, 0.5, 1e-5);
+        // The normal still faces out of the sphere, i.e. along the ray.
+        assert_vec_close(s.surface(&r, &h).normal, -Vec3::Z, 1e-5);
+    }
+
+    #[test]
+    fn grazing_just_outside_misses() {
+        let s = unit_sphere_ahead();
+        let r = ray([1.0 + 1e-3, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn grazing_just_inside_hits() {
+        let s = unit_sphere_ahead();
+        let r = ray([1.0 - 1e-3, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        let h = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        let half_chord = (1.0f32 - 0.999 * 0.999).sqrt();
+        assert_close(h.t, 5.0 - half_chord, 1e-4);
+        let n = s.surface(&r, &h).normal;
+        assert!(n.is_finite());
+        assert_close(n.length(), 1.0, 1e-5);
+    }
+
+    #[test]
+    fn exactly_tangent_counts_as_hit() {
+        let s = unit_sphere_ahead();
+        let r = ray([1.0, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        let h = s.intersect(&r, 0.0, f32::INFINITY).unwrap();
+        assert_close(h.t, 5.0, 1e-5);
+        assert_vec_close(s.surface(&r, &h).normal, Vec3::X, 1e-5);
+    }
+
+    #[test]
+    fn sphere_behind_origin_is_missed() {
+        let s = unit_sphere_ahead();
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]);
+        assert_eq!(s.intersect(&r, 0.0, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn respects_t_max_and_t_min() {
+        let s = unit_sphere_ahead();
+        let r = ray([0.0, 0.0, 0.0], [0.0, 0.0, -1.0]);
+        assert_eq!(s.intersect(&r, 0.0, 3.9), None);
+        assert!(s.intersect(&r, 0.0, 4.1).is_some());
+        // Past the near root, the far one is the answer.
+        assert_close(s.intersect(&r, 4.5, f32::INFINITY).unwrap().t, 6.0, 1e-5);
+        assert_eq!(s.intersect(&r, 6.1, f32::INFINITY), None);
+    }
+
+    #[test]
+    fn offset_reflected_and_exiting_rays_do_not_hit_again() {
+        let s = Sphere::new(Vec3::new(3.0, -2.0, -40.0), 2.5);
+        let mut rng = Rng::new(7);
+        for _ in 0..500 {
+            let r = Ray::new(Vec3::ZERO, s.center + rng.in_box(-Vec3::splat(2.4), Vec3::splat(2.4)));
+            let Some(h) = s.intersect(&r, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            let surf = s.surface(&r, &h);
+            let eps = surface_offset(surf.point);
+            let bounce = Ray::new(surf.point + eps * surf.normal, reflect(r.dir, surf.normal));
+            assert_eq!(s.intersect(&bounce, 0.0, f32::INFINITY), None);
+            // Leaving through the far wall, the continued ray must not see the sphere.
+            let inner = Ray::new(surf.point - eps * surf.normal, r.dir);
+            let far = s.intersect(&inner, 0.0, f32::INFINITY).unwrap();
+            let exit = s.surface(&inner, &far);
+            let out = Ray::new(exit.point + surface_offset(exit.point) * exit.normal, r.dir);
+            assert_eq!(s.intersect(&out, 0.0, f32::INFINITY), None);
+        }
+    }
+
+    #[test]
+    fn uv_is_equirectangular() {
+        let s = Sphere::new(Vec3::ZERO, 2.0);
+        let uv_at = |d: Vec3| {
+            let r = Ray::new(5.0 * d, -d);
+            s.surface(&r, &s.intersect(&r, 0.0, f32::INFINITY).unwrap()).uv
+        };
+        let front = uv_at(Vec3::Z);
+        assert_close(front.x, 0.5, 1e-5);
+        assert_close(front.y, 0.5, 1e-5);
+        assert_close(uv_at(Vec3::Y).y, 0.0, 1e-3);
+        assert_close(uv_at(-Vec3::Y).y, 1.0, 1e-3);
+        assert_close(uv_at(Vec3::X).x, 0.75, 1e-5);
+        assert_close(uv_at(-Vec3::X).x, 0.25, 1e-5);
+    }
+
+    #[test]
+    fn bounds_are_tight() {
+        let b = Sphere::new(Vec3::new(1.0, 2.0, 3.0), 0.5).bounds();
+        assert_eq!(b.min, Vec3::new(0.5, 1.5, 2.5));
+        assert_eq!(b.max, Vec3::new(1.5, 2.5, 3.5));
+    }
+
+    #[test]
+    fn random_rays_hit_on_surface_and_first() {
+        let s = Sphere::new(Vec3::new(0.5, -0.25, 1.0), 1.5);
+        let sdf = |p: Vec3| (p - s.center).length() - s.radius;
+        let b = s.bounds();
+        let mut rng = Rng::new(0x5EED);
+        let mut hits = 0;
+        for _ in 0..4000 {
+            let r = rng.ray(b.min, b.max, 3.0);
+            let t_min = if rng.unit() < 0.5 { 0.0 } else { rng.range(0.0, 2.0) };
+            let t_max = if rng.unit() < 0.5 {
+                f32::INFINITY
+            } else {
+                t_min + rng.range(0.0, 8.0)
+            };
+            let hit = s.intersect(&r, t_min, t_max);
+            let end = match hit {
+                Some(h) => {
+                    hits += 1;
+                    assert!(h.t > t_min && h.t < t_max, "t {} outside ({t_min}, {t_max})", h.t);
+                    let p = r.at(h.t);
+                    assert!(sdf(p).abs() < 1e-3 * s.radius, "{p} off the surface");
+                    let n = s.surface(&r, &h).normal;
+                    assert_close(n.length(), 1.0, 1e-4);
+                    h.t
+                }
+                None => t_max.min(t_min + 20.0),
+            };
+            // No crossing may be skipped between t_min and the reported hit (or the end).
+            let start = sdf(r.at(t_min));
+            if start.abs() < 1e-3 {
+                continue;
+            }
+            for k in 1..64 {
+                let t = t_min + (end - t_min) * k as f32 / 64.0;
+                let d = sdf(r.at(t));
+                assert!(d * start.signum() > -1e-3, "crossing before t = {end} at {t}: {r:?}");
+            }
+        }
+        assert!(hits > 1000, "only {hits} hits: the test is not exercising much");
+    }
+}

@@ -1,0 +1,341 @@
+//! The Whitted trace function: local Phong shading from every light with shadows that
+//! pass through transparent objects, then recursion for mirror reflection and for
+//! transmission (straight through, or bent by Snell's law, or totally reflected).
+
+mod stats;
+
+pub use stats::RayStats;
+
+use crate::accel::World;
+use crate::geometry::Surface;
+use crate::math::{Color, Ray, Vec3, reflect, refract, surface_offset};
+
+/// The index of refraction of the space between objects.
+pub const OUTSIDE_IOR: f32 = 1.0;
+
+/// Traces rays through a [`World`].
+#[derive(Clone, Copy, Debug)]
+pub struct Integrator<'w, 's> {
+    world: &'w World<'s>,
+    max_depth: u32,
+    background: Color,
+    ambient: f32,
+}
+
+impl<'w, 's> Integrator<'w, 's> {
+    pub fn new(world: &'w World<'s>, max_depth: u32) -> Self {
+        let s = &world.scene().settings;
+        Integrator {
+            world,
+            max_depth,
+            background: s.background,
+            ambient: s.ambient,
+        }
+    }
+
+    /// The colour seen along a camera ray.
+    pub fn trace_primary(&self, ray: &Ray, stats: &mut RayStats) -> Color {
+        stats.primary += 1;
+        self.trace(ray, 1, stats)
+    }
+
+    /// The colour seen along `ray`, the `depth`-th ray of its chain.
+    ///
+    /// A surface's colour is `(1 − ρ − τ)·(ambient + diffuse) + ρ·reflected +
+    /// τ·transmitted + specular`, the original's blending rules in one formula
+    /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
+    /// the original. Past the depth limit the reflected and transmitted shares are black.
+    pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
+        let Some((hit, index)) = self.world.closest(ray, 0.0, f32::INFINITY) else {
+            return self.background;
+        };
+        let scene = self.world.scene();
+        let object = &scene.objects[index as usize];
+        let material = scene.material(object.material);
+        let surface = object.shape.surface(ray, &hit);
+        let p = surface.point;
+        // The normal on the ray's side of the surface.
+        let n = if ray.dir.dot(surface.normal) < 0.0 {
+            surface.normal
+        } else {
+            -surface.normal
+        };
+        let offset = surface_offset(p);
+        let lit_from = p + offset * n;
+
+        let base = material.texture.color(p, surface.uv);
+        let mut diffuse = Color::ZERO;
+        let mut specular = Color::ZERO;
+        for light in &scene.lights {
+            let to_light = light.position - lit_from;
+            let distance = to_light.length();
+            let l = to_light / distance;
+            let n_dot_l = n.dot(l);
+            if n_dot_l <= 0.0 {
+                continue; // the light is behind the surface
+            }
+            stats.shadow += 1;
+            let visible = self.world.transmittance(
+                &Ray {
+                    origin: lit_from,
+                    dir: l,
+                },
+                distance,
+            );
+            if visible == 0.0 {
+                continue;
+            }
+            diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
+            if material.specular > 0.0 {
+                let r_dot_v = reflect(-l, n).dot(-ray.dir);
+                if r_dot_v > 0.0 {
+                    specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+                }
+            }
+        }
+        let mut color = material.local_share() * (self.ambient * base + diffuse) + specular;
+
+        if depth < self.max_depth {
+            if material.reflectivity > 0.0 {
+                stats.reflection += 1;
+                let r = Ray {
+                    origin: lit_from,
+                    dir: reflect(ray.dir, n),
+                };
+                color += material.reflectivity * self.trace(&r, depth + 1, stats);
+            }
+            if material.transparency > 0.0 {
+                let (t, kind) = transmitted_ray(ray, &surface, material.ior);
+                match kind {
+                    Transmission::Refracted => stats.refraction += 1,
+                    Transmission::TotalInternalReflection => stats.reflection += 1,
+                }
+                color += material.transparency * self.trace(&t, depth + 1, stats);
+            }
+        }
+        color
+    }
+}
+
+/// How a ray continued through a transparent surface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Transmission {
+    Refracted,
+    TotalInternalReflection,
+}
+
+/// The ray that continues through a transparent surface of index `ior` hit by `ray`.
+///
+/// Whether the ray enters or leaves is read from the outward normal: entering it goes
+/// from [`OUTSIDE_IOR`] into `ior`, leaving it goes from `ior` back to the outside (the
+/// original passed the index as an integer and bent exiting rays as if entering again).
+/// Past the critical angle the ray is reflected instead. With `ior` 1 the direction is
+/// kept exactly: plain transparency.
+pub fn transmitted_ray(ray: &Ray, surface: &Surface, ior: f32) -> (Ray, Transmission) {
+    let entering = ray.dir.dot(surface.normal) < 0.0;
+    let n: Vec3 = if entering { surface.normal } else { -surface.normal };
+    let offset = surface_offset(surface.point) * n;
+    if ior == OUTSIDE_IOR {
+        return (
+            Ray {
+                origin: surface.point - offset,
+                dir: ray.dir,
+            },
+            Transmission::Refracted,
+        );
+    }
+    let eta = if entering { OUTSIDE_IOR / ior } else { ior / OUTSIDE_IOR };
+    match refract(ray.dir, n, eta) {
+        Some(dir) => (
+            Ray {
+                origin: surface.point - offset,
+                dir,
+            },
+            Transmission::Refracted,
+        ),
+        None => (
+            Ray {
+                origin: surface.point + offset,
+                dir: reflect(ray.dir, n),
+            },
+            Transmission::TotalInternalReflection,
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{AccelKind, World};
+    use crate::camera::Camera;
+    use crate::geometry::{Quad, Shape, Sphere};
+    use crate::light::PointLight;
+    use crate::material::Material;
+    use crate::scene::Scene;
+
+    fn shape_surface(shape: &Shape, ray: &Ray) -> Surface {
+        let hit = shape.intersect(ray, 0.0, f32::INFINITY).expect("ray should hit");
+        shape.surface(ray, &hit)
+    }
+
+    /// A glass slab between z = 0 and z = -1, outward normals +z and -z.
+    fn slab() -> (Shape, Shape) {
+        let top = Shape::Quad(Quad::new(
+            Vec3::new(-10.0, -10.0, 0.0),
+            Vec3::new(20.0, 0.0, 0.0),
+            Vec3::new(0.0, 20.0, 0.0),
+        ));
+        let bottom = Shape::Quad(Quad::new(
+            Vec3::new(-10.0, -10.0, -1.0),
+            Vec3::new(0.0, 20.0, 0.0),
+            Vec3::new(20.0, 0.0, 0.0),
+        ));
+        (top, bottom)
+    }
+
+    #[test]
+    fn ray_through_glass_slab_leaves_parallel_to_incoming() {
+        let (top, bottom) = slab();
+        let incoming = Ray::new(Vec3::new(0.0, 0.0, 5.0), Vec3::new(0.6, 0.0, -1.0));
+        let (inside, kind) = transmitted_ray(&incoming, &shape_surface(&top, &incoming), 1.5);
+        assert_eq!(kind, Transmission::Refracted);
+        // Bent towards the normal inside the glass.
+        assert!(inside.dir.x < incoming.dir.x * 0.9, "{:?}", inside.dir);
+        let (out, kind) = transmitted_ray(&inside, &shape_surface(&bottom, &inside), 1.5);
+        assert_eq!(kind, Transmission::Refracted);
+        assert!(
+            (out.dir - incoming.dir).length() < 1e-5,
+            "{:?} vs {:?}",
+            out.dir,
+            incoming.dir
+        );
+        // ...and displaced sideways, as a real slab does.
+        assert!(out.origin.x > 0.6 * 5.0 / 1.0 * 1.0 + 0.1);
+    }
+
+    #[test]
+    fn ray_through_glass_sphere_exits_at_its_entry_angle() {
+        // By symmetry a ray leaves a sphere at the angle it came in: the exit index
+        // must be glass → air. Bending as if entering again (the original's bug)
+        // breaks this.
+        let sphere = Shape::Sphere(Sphere::new(Vec3::new(0.0, 0.0, -10.0), 2.0));
+        let incoming = Ray::new(Vec3::new(1.2, 0.3, 0.0), Vec3::NEG_Z);
+        let entry = shape_surface(&sphere, &incoming);
+        let (inside, _) = transmitted_ray(&incoming, &entry, 1.5);
+        let exit = shape_surface(&sphere, &inside);
+        let (out, kind) = transmitted_ray(&inside, &exit, 1.5);
+        assert_eq!(kind, Transmission::Refracted);
+        let angle_in = (-incoming.dir).dot(entry.normal).acos();
+        let angle_out = out.dir.dot(exit.normal).acos();
+        assert!((angle_in - angle_out).abs() < 2e-3, "{angle_in} vs {angle_out}");
+        // A central ray goes straight through, parallel to where it came from.
+        let central = Ray::new(Vec3::ZERO, Vec3::new(0.0, 0.0, -1.0));
+        let (inside, _) = transmitted_ray(&central, &shape_surface(&sphere, &central), 1.5);
+        let (out, _) = transmitted_ray(&inside, &shape_surface(&sphere, &inside), 1.5);
+        assert!((out.dir - central.dir).length() < 1e-6);
+    }
+
+    #[test]
+    fn total_internal_reflection_past_the_critical_angle_and_not_before() {
+        // Inside glass of index 1.5 under the surface z = 0 (outward normal +z): the
+        // critical angle is asin(1 / 1.5) = 41.81°.
+        let (top, _) = slab();
+        let at = |degrees: f32| {
+            let a = degrees.to_radians();
+            let ray = Ray::new(Vec3::new(0.0, 0.0, -0.5), Vec3::new(a.sin(), 0.0, a.cos()));
+            transmitted_ray(&ray, &shape_surface(&top, &ray), 1.5)
+        };
+        let (r, kind) = at(40.0);
+        assert_eq!(kind, Transmission::Refracted);
+        assert!(r.dir.z > 0.0, "refracted out of the glass");
+        let (r, kind) = at(41.5);
+        assert_eq!(kind, Transmission::Refracted);
+        assert!(r.dir.z > 0.0);
+        let (r, kind) = at(42.2);
+        assert_eq!(kind, Transmission::TotalInternalReflection);
+        assert!(r.dir.z < 0.0 && r.origin.z < 0.0, "reflected back into the glass");
+        let (_, kind) = at(60.0);
+        assert_eq!(kind, Transmission::TotalInternalReflection);
+        // Entering glass from air never reflects totally.
+        let a = 89f32.to_radians();
+        let grazing = Ray::new(Vec3::new(0.0, 0.0, 0.05), Vec3::new(a.sin(), 0.0, -a.cos()));
+        assert_eq!(
+            transmitted_ray(&grazing, &shape_surface(&top, &grazing), 1.5).1,
+            Transmission::Refracted
+        );
+    }
+
+    /// A floor lit from straight above, with `spheres` (transmission 0.7 each) in between.
+    fn floor_under(spheres: &[Vec3]) -> Scene {
+        let mut scene = Scene::new(Camera::new(Vec3::new(0.0, 5.0, 5.0), Vec3::ZERO, Vec3::Y, 40.0, 8, 8));
+        scene.settings.ambient = 0.0;
+        let floor = scene.add_material(Material::color(Color::ONE).matte());
+        let glass = scene.add_material(Material::color(Color::ONE).transparent(0.7, 1.0));
+        scene.add(
+            Quad::new(
+                Vec3::new(-5.0, 0.0, 5.0),
+                Vec3::new(10.0, 0.0, 0.0),
+                Vec3::new(0.0, 0.0, -10.0),
+            ),
+            floor,
+        );
+        for &c in spheres {
+            scene.add(Sphere::new(c, 1.0), glass);
+        }
+        scene.add_light(PointLight::new(Vec3::new(0.0, 10.0, 0.0), Color::ONE));
+        scene
+    }
+
+    #[test]
+    fn shadow_through_two_overlapping_transparent_spheres_is_scaled_by_both() {
+        let eye_to_floor = Ray::new(Vec3::new(0.0, 0.5, 0.0) + Vec3::new(0.0, 0.0, 0.0), Vec3::NEG_Y);
+        let brightness = |spheres: &[Vec3]| {
+            let scene = floor_under(spheres);
+            let world = World::new(&scene, AccelKind::default());
+            // Looking straight down at the floor point under the light, from below the spheres.
+            let c = Integrator::new(&world, 1).trace(&eye_to_floor, 1, &mut RayStats::default());
+            let lit_point = Ray::new(Vec3::new(0.0, 1e-3, 0.0), Vec3::Y);
+            (c.x, world.transmittance(&lit_point, 10.0 - 1e-3))
+        };
+        let (open, t_open) = brightness(&[]);
+        let (one, t_one) = brightness(&[Vec3::new(0.0, 4.0, 0.0)]);
+        let (two, t_two) = brightness(&[Vec3::new(0.0, 4.0, 0.0), Vec3::new(0.0, 4.8, 0.0)]);
+        assert_eq!((t_open, t_one), (1.0, 0.7));
+        assert!(
+            (t_two - 0.49).abs() < 1e-6,
+            "two overlapping 70 % spheres pass {t_two}, not 0.49"
+        );
+        assert!(open > 0.9, "{open}");
+        assert!((one / open - 0.7).abs() < 1e-5, "{one} / {open}");
+        assert!((two / open - 0.49).abs() < 1e-5, "{two} / {open}");
+    }
+
+    #[test]
+    fn opaque_occluder_leaves_only_ambient() {
+        let mut scene = floor_under(&[]);
+        scene.settings.ambient = 0.2;
+        let wall = scene.add_material(Material::color(Color::ONE));
+        scene.add(Sphere::new(Vec3::new(0.0, 4.0, 0.0), 1.0), wall);
+        let world = World::new(&scene, AccelKind::default());
+        let c = Integrator::new(&world, 1).trace(
+            &Ray::new(Vec3::new(0.0, 0.5, 0.0), Vec3::NEG_Y),
+            1,
+            &mut RayStats::default(),
+        );
+        assert!((c - Color::splat(0.2)).abs().max_element() < 1e-6, "{c}");
+    }
+
+    #[test]
+    fn facing_mirrors_recurse_to_the_depth_limit() {
+        // Two parallel mirrors; a ray between them bounces until max_depth.
+        let mut scene = Scene::new(Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 40.0, 8, 8));
+        let mirror = scene.add_material(Material::color(Color::splat(0.5)).reflective(1.0).matte());
+        let (a, b) = slab();
+        scene.add(a, mirror).add(b, mirror);
+        let world = World::new(&scene, AccelKind::default());
+        let mut stats = RayStats::default();
+        Integrator::new(&world, 10).trace_primary(&Ray::new(Vec3::new(0.0, 0.0, -0.5), Vec3::Z), &mut stats);
+        assert_eq!(stats.primary, 1);
+        assert_eq!(stats.reflection, 9, "the primary ray is step 1 of 10");
+    }
+}

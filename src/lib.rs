@@ -1,0 +1,32 @@
+//! Whitted: a fast recursive ray tracer.
+//!
+//! Follow one ray: [`camera`] makes it, [`integrator`] traces it through the [`accel`]
+//! structure over the [`geometry`], shades it with [`material`]s, [`texture`]s and
+//! [`light`]s, and [`render`] gathers the pixels into the [`film`]. [`scene`] reads
+//! scene files or lets you build a scene in code.
+
+pub mod accel;
+pub mod camera;
+pub mod film;
+pub mod geometry;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod math;
+pub mod render;
+pub mod sampler;
+pub mod scene;
+pub mod texture;
+
+/// Everything needed to build and render a scene in code.
+pub mod prelude {
+    pub use crate::camera::Camera;
+    pub use crate::film::{Image, write_png};
+    pub use crate::geometry::{Cone, Cylinder, Polygon, Quad, Shape, Sphere, Triangle};
+    pub use crate::light::PointLight;
+    pub use crate::material::Material;
+    pub use crate::math::{Color, Vec2, Vec3};
+    pub use crate::render::Renderer;
+    pub use crate::scene::{MaterialId, Scene};
+    pub use crate::texture::Texture;
+}

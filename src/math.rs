@@ -1,0 +1,99 @@
+//! Vectors, rays and boxes: the vocabulary every other module speaks.
+
+pub use glam::{Vec2, Vec3};
+
+/// Linear RGB; components are not clamped until the film writes them out.
+pub type Color = Vec3;
+
+/// A half-line `origin + t * dir`. `dir` is kept unit length so `t` is a distance,
+/// which the shading code and the epsilon offsets rely on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+}
+
+impl Ray {
+    /// Builds a ray, normalising `dir`.
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Ray {
+            origin,
+            dir: dir.normalize(),
+        }
+    }
+
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
+        points.into_iter().fold(Aabb::EMPTY, |b, p| b.grow(p))
+    }
+
+    pub fn grow(self, p: Vec3) -> Self {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    pub fn union(self, o: Aabb) -> Self {
+        Aabb {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    pub fn center(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+}
+
+/// How far a new ray's origin is pushed off the surface it starts on, so it does not
+/// hit that surface again (shadow acne). Relative to the point's magnitude because f32
+/// spacing grows with it: about 12 ulps at any scale.
+pub fn surface_offset(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// Mirror reflection of `d` about the normal `n` (both unit).
+pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
+    d - 2.0 * d.dot(n) * n
+}
+
+/// Snell refraction of unit `d` through a surface with unit normal `n` facing against
+/// `d`, `eta` = index on the incoming side / index on the far side. `None` past the
+/// critical angle (total internal reflection).
+pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = -d.dot(n);
+    let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+    if k < 0.0 {
+        return None;
+    }
+    Some((eta * d + (eta * cos_i - k.sqrt()) * n).normalize())
+}
+
+/// An orthonormal pair perpendicular to unit `n` (Duff et al. 2017, branchless).
+pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
+    let sign = 1.0f32.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (
+        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
+        Vec3::new(b, sign + n.y * n.y * a, -n.y),
+    )
+}

@@ -1,0 +1,160 @@
+//! Drives a render: splits the image into tiles, traces them on all cores, assembles the
+//! film. Every pixel depends only on the scene, the settings and its own coordinates, so
+//! the image is the same for any thread count.
+
+use crate::accel::{AccelKind, World};
+use crate::camera::CameraError;
+use crate::film::Image;
+use crate::integrator::{Integrator, RayStats};
+use crate::math::{Color, Vec2};
+use crate::sampler::{Rng, pixel_samples};
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::time::{Duration, Instant};
+
+/// Tile edge in pixels: small enough to balance load across threads, big enough that
+/// per-tile overhead vanishes.
+const TILE: u32 = 16;
+
+/// A configured render of one scene. Settings start from the scene's own and can be
+/// overridden one by one.
+#[derive(Clone, Debug)]
+pub struct Renderer<'s> {
+    scene: &'s Scene,
+    width: u32,
+    height: u32,
+    spp: u32,
+    max_depth: u32,
+    threads: Option<usize>,
+    accel: AccelKind,
+}
+
+/// What a render produced.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub image: Image,
+    pub stats: RayStats,
+    /// Wall time of tracing (not of loading the scene or writing the file).
+    pub elapsed: Duration,
+    /// Samples per pixel used.
+    pub spp: u32,
+}
+
+impl<'s> Renderer<'s> {
+    /// Fails only if the scene's camera cannot make rays.
+    pub fn new(scene: &'s Scene) -> Result<Self, CameraError> {
+        scene.camera.rig()?;
+        Ok(Renderer {
+            scene,
+            width: scene.camera.width,
+            height: scene.camera.height,
+            spp: scene.settings.samples.max(1),
+            max_depth: scene.settings.max_depth,
+            threads: None,
+            accel: AccelKind::default(),
+        })
+    }
+
+    pub fn size(mut self, width: u32, height: u32) -> Self {
+        self.width = width.max(1);
+        self.height = height.max(1);
+        self
+    }
+
+    /// Samples per pixel (see [`pixel_samples`] for their layout).
+    pub fn spp(mut self, spp: u32) -> Self {
+        self.spp = spp.max(1);
+        self
+    }
+
+    pub fn max_depth(mut self, depth: u32) -> Self {
+        self.max_depth = depth;
+        self
+    }
+
+    /// Worker threads; all cores when not set.
+    pub fn threads(mut self, threads: usize) -> Self {
+        self.threads = Some(threads.max(1));
+        self
+    }
+
+    pub fn accel(mut self, accel: AccelKind) -> Self {
+        self.accel = accel;
+        self
+    }
+
+    pub fn render(&self) -> Image {
+        self.render_with_progress(&|_, _| {}).image
+    }
+
+    /// Renders, calling `progress(tiles_done, tiles_total)` as tiles complete (from
+    /// worker threads, in no particular order).
+    pub fn render_with_progress(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
+        match self.threads {
+            Some(n) => {
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(n)
+                    .build()
+                    .expect("thread pool");
+                pool.install(|| self.render_tiles(progress))
+            }
+            None => self.render_tiles(progress),
+        }
+    }
+
+    fn render_tiles(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
+        let start = Instant::now();
+        let mut camera = self.scene.camera;
+        camera.width = self.width;
+        camera.height = self.height;
+        let rig = camera.rig().expect("checked in Renderer::new");
+        let world = World::new(self.scene, self.accel);
+        let integrator = Integrator::new(&world, self.max_depth);
+
+        let tiles_x = self.width.div_ceil(TILE);
+        let tiles_y = self.height.div_ceil(TILE);
+        let total = (tiles_x * tiles_y) as usize;
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let tiles: Vec<(Vec<Color>, RayStats)> = (0..total)
+            .into_par_iter()
+            .map(|t| {
+                let (x0, y0) = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
+                let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
+                let mut stats = RayStats::default();
+                let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                let mut samples: Vec<Vec2> = Vec::with_capacity(self.spp as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let mut rng = Rng::for_pixel(x, y, 0);
+                        pixel_samples(self.spp, &mut rng, &mut samples);
+                        let mut sum = Color::ZERO;
+                        for s in &samples {
+                            let ray = rig.ray(x as f32 + s.x, y as f32 + s.y);
+                            sum += integrator.trace_primary(&ray, &mut stats);
+                        }
+                        pixels.push(sum / samples.len() as f32);
+                    }
+                }
+                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, total);
+                (pixels, stats)
+            })
+            .collect();
+
+        let mut image = Image::new(self.width, self.height);
+        let mut stats = RayStats::default();
+        for (t, (pixels, s)) in tiles.into_iter().enumerate() {
+            stats += s;
+            let (x0, y0) = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
+            let w = (x0 + TILE).min(self.width) - x0;
+            for (i, c) in pixels.into_iter().enumerate() {
+                image.set(x0 + i as u32 % w, y0 + i as u32 / w, c);
+            }
+        }
+        RenderOutput {
+            image,
+            stats,
+            elapsed: start.elapsed(),
+            spp: self.spp,
+        }
+    }
+}

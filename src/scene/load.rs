@@ -1,0 +1,702 @@
+//! Reading scene files (TOML). Parsing keeps the byte span of every value, so that any
+//! problem found later (a negative radius, an unknown material) is reported with the
+//! file, line, column and field at fault. Unknown keys are errors: they are typos.
+
+use super::{MaterialId, Object, Scene, SceneError, Settings};
+use crate::camera::{Camera, CameraError};
+use crate::geometry::{Cone, Cylinder, Polygon, Quad, Shape, Sphere, Triangle};
+use crate::light::PointLight;
+use crate::material::Material;
+use crate::math::{Color, Vec2, Vec3};
+use crate::texture::{ImageMap, Texture, planet};
+use serde::Deserialize;
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use toml::Spanned;
+
+/// The built-in default scene: the seed room. The file in the repository is compiled in,
+/// so the two cannot drift apart.
+pub const DEFAULT_SCENE: &str = include_str!("../../scenes/room.toml");
+/// The name the built-in scene goes by in messages.
+pub const DEFAULT_SCENE_NAME: &str = "scenes/room.toml";
+/// Largest image side accepted: 16384² RGB floats is already 3 GiB of film.
+pub const MAX_RESOLUTION: i64 = 16384;
+const MAX_DEPTH: i64 = 1000;
+const MAX_SAMPLES: i64 = 65536;
+
+/// Reads and checks a scene file. Relative texture paths are relative to the file.
+pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
+    let name = path.display().to_string();
+    let src = std::fs::read_to_string(path).map_err(|e| SceneError::File {
+        file: name.clone(),
+        message: format!("cannot read the scene: {e}"),
+    })?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    load_str(&src, &name, base)
+}
+
+/// Parses a scene from text. `name` is used in messages; relative paths in the scene
+/// are resolved against `base_dir`.
+pub fn load_str(src: &str, name: &str, base_dir: &Path) -> Result<Scene, SceneError> {
+    let ctx = Ctx {
+        name,
+        src,
+        base_dir,
+        images: Default::default(),
+    };
+    let desc: FileDesc = toml::from_str(src).map_err(|e| ctx.toml_error(&e))?;
+    ctx.build(desc)
+}
+
+type V3 = [f32; 3];
+type S<T> = Spanned<T>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FileDesc {
+    camera: S<CameraDesc>,
+    settings: Option<S<SettingsDesc>>,
+    #[serde(default)]
+    light: Vec<S<LightDesc>>,
+    #[serde(default)]
+    material: BTreeMap<String, S<MaterialDesc>>,
+    #[serde(default)]
+    sphere: Vec<S<SphereDesc>>,
+    #[serde(default)]
+    quad: Vec<S<QuadDesc>>,
+    #[serde(default)]
+    polygon: Vec<S<PolygonDesc>>,
+    #[serde(default)]
+    cylinder: Vec<S<CylinderDesc>>,
+    #[serde(default)]
+    cone: Vec<S<ConeDesc>>,
+    #[serde(default)]
+    triangle: Vec<S<TriangleDesc>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDesc {
+    position: S<V3>,
+    look_at: S<V3>,
+    up: Option<S<V3>>,
+    fov: S<f32>,
+    width: Option<S<i64>>,
+    height: Option<S<i64>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SettingsDesc {
+    background: Option<S<V3>>,
+    max_depth: Option<S<i64>>,
+    samples: Option<S<i64>>,
+    ambient: Option<S<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightDesc {
+    position: S<V3>,
+    color: Option<S<V3>>,
+    intensity: Option<S<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialDesc {
+    color: Option<S<V3>>,
+    texture: Option<S<TextureDesc>>,
+    diffuse: Option<S<f32>>,
+    specular: Option<S<f32>>,
+    shininess: Option<S<f32>>,
+    reflectivity: Option<S<f32>>,
+    transparency: Option<S<f32>>,
+    ior: Option<S<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TextureDesc {
+    kind: S<String>,
+    colors: Option<S<[V3; 2]>>,
+    axis: Option<S<V3>>,
+    width: Option<S<f32>>,
+    size: Option<S<f32>>,
+    offset: Option<S<Vec<f32>>>,
+    scale: Option<S<Vec<f32>>>,
+    path: Option<S<String>>,
+    seed: Option<S<i64>>,
+    resolution: Option<S<[i64; 2]>>,
+}
+
+/// `material = "name"` or an inline table `material = { color = [1, 0, 0] }`.
+enum MaterialRef {
+    Named(String),
+    Inline(Box<MaterialDesc>),
+}
+
+impl<'de> Deserialize<'de> for MaterialRef {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> serde::de::Visitor<'de> for V {
+            type Value = MaterialRef;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a material name or a table of material fields")
+            }
+            fn visit_str<E: serde::de::Error>(self, s: &str) -> Result<MaterialRef, E> {
+                Ok(MaterialRef::Named(s.to_owned()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<MaterialRef, A::Error> {
+                let desc = MaterialDesc::deserialize(serde::de::value::MapAccessDeserializer::new(map))?;
+                Ok(MaterialRef::Inline(Box::new(desc)))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SphereDesc {
+    center: S<V3>,
+    radius: S<f32>,
+    material: S<MaterialRef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct QuadDesc {
+    corner: S<V3>,
+    edge_u: S<V3>,
+    edge_v: S<V3>,
+    material: S<MaterialRef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PolygonDesc {
+    vertices: S<Vec<V3>>,
+    material: S<MaterialRef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CylinderDesc {
+    base: S<V3>,
+    axis: S<V3>,
+    radius: S<f32>,
+    height: S<f32>,
+    caps: Option<bool>,
+    material: S<MaterialRef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ConeDesc {
+    base: S<V3>,
+    axis: S<V3>,
+    radius: S<f32>,
+    height: S<f32>,
+    cap: Option<bool>,
+    material: S<MaterialRef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TriangleDesc {
+    vertices: S<[V3; 3]>,
+    material: S<MaterialRef>,
+}
+
+/// What the checks need: the text (to turn byte offsets into lines) and where to find
+/// the files it names.
+struct Ctx<'a> {
+    name: &'a str,
+    src: &'a str,
+    base_dir: &'a Path,
+    /// Each image file is decoded once however many materials use it.
+    images: std::cell::RefCell<HashMap<PathBuf, Arc<ImageMap>>>,
+}
+
+type R<T> = Result<T, SceneError>;
+
+impl Ctx<'_> {
+    fn line_col(&self, offset: usize) -> (usize, usize) {
+        let offset = offset.min(self.src.len());
+        let before = &self.src[..offset];
+        let line = before.matches('\n').count() + 1;
+        let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+        (line, before[line_start..].chars().count() + 1)
+    }
+
+    fn error_at(&self, offset: usize, field: &str, message: impl Into<String>) -> SceneError {
+        let (line, column) = self.line_col(offset);
+        SceneError::At {
+            file: self.name.to_owned(),
+            line,
+            column,
+            field: field.to_owned(),
+            message: message.into(),
+        }
+    }
+
+    fn err<T>(&self, v: &S<T>, field: &str, message: impl Into<String>) -> SceneError {
+        self.error_at(v.span().start, field, message)
+    }
+
+    /// A TOML or type error: the field is the one the message names in backquotes, or the
+    /// key the error's position is the value of.
+    fn toml_error(&self, e: &toml::de::Error) -> SceneError {
+        let message = e.message().trim().to_owned();
+        let offset = e.span().map_or(0, |s| s.start);
+        let field = message
+            .split('`')
+            .nth(1)
+            .filter(|_| message.starts_with("unknown field") || message.starts_with("missing field"))
+            .map(str::to_owned)
+            .or_else(|| self.key_before(offset))
+            .unwrap_or_else(|| "syntax".to_owned());
+        self.error_at(offset, &field, message)
+    }
+
+    /// The key whose value starts at `offset` (`radius` in `radius = "five"`).
+    fn key_before(&self, offset: usize) -> Option<String> {
+        let offset = offset.min(self.src.len());
+        let line_start = self.src[..offset].rfind('\n').map_or(0, |i| i + 1);
+        let prefix = &self.src[line_start..offset];
+        let eq = prefix.rfind('=')?;
+        let key = prefix[..eq].trim_end();
+        let key = key.rsplit(|c: char| c == '{' || c == ',' || c.is_whitespace()).next()?;
+        let key = key.trim_matches(|c| c == '"' || c == '\'');
+        (!key.is_empty()).then(|| key.to_owned())
+    }
+
+    fn finite(&self, v: &S<f32>, field: &str) -> R<f32> {
+        let x = *v.get_ref();
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.err(v, field, format!("must be a finite number (got {x})")))
+        }
+    }
+
+    fn positive(&self, v: &S<f32>, field: &str) -> R<f32> {
+        let x = self.finite(v, field)?;
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(v, field, format!("must be > 0 (got {x})")))
+        }
+    }
+
+    fn non_negative(&self, v: &S<f32>, field: &str) -> R<f32> {
+        let x = self.finite(v, field)?;
+        if x >= 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(v, field, format!("must be >= 0 (got {x})")))
+        }
+    }
+
+    fn share(&self, v: &S<f32>, field: &str) -> R<f32> {
+        let x = self.finite(v, field)?;
+        if (0.0..=1.0).contains(&x) {
+            Ok(x)
+        } else {
+            Err(self.err(v, field, format!("must be in [0, 1] (got {x})")))
+        }
+    }
+
+    fn vec3(&self, v: &S<V3>, field: &str) -> R<Vec3> {
+        let a = *v.get_ref();
+        if a.iter().all(|x| x.is_finite()) {
+            Ok(Vec3::from_array(a))
+        } else {
+            Err(self.err(v, field, format!("must be three finite numbers (got {a:?})")))
+        }
+    }
+
+    fn direction(&self, v: &S<V3>, field: &str) -> R<Vec3> {
+        let d = self.vec3(v, field)?;
+        if d.length_squared() > 0.0 {
+            Ok(d)
+        } else {
+            Err(self.err(v, field, "must not be the zero vector"))
+        }
+    }
+
+    fn color(&self, v: &S<V3>, field: &str) -> R<Color> {
+        let c = self.vec3(v, field)?;
+        if c.min_element() >= 0.0 {
+            Ok(c)
+        } else {
+            Err(self.err(v, field, format!("colour components must be >= 0 (got {c})")))
+        }
+    }
+
+    fn int_in(&self, v: &S<i64>, field: &str, lo: i64, hi: i64, why: &str) -> R<u32> {
+        let x = *v.get_ref();
+        if (lo..=hi).contains(&x) {
+            Ok(x as u32)
+        } else {
+            Err(self.err(v, field, format!("must be between {lo} and {hi}{why} (got {x})")))
+        }
+    }
+
+    fn build(&self, desc: FileDesc) -> R<Scene> {
+        let camera = self.camera(&desc.camera)?;
+        let mut scene = Scene::new(camera);
+        if let Some(s) = &desc.settings {
+            scene.settings = self.settings(s.get_ref())?;
+        }
+        for l in &desc.light {
+            let l = l.get_ref();
+            let position = self.vec3(&l.position, "position")?;
+            let color = l.color.as_ref().map_or(Ok(Color::ONE), |c| self.color(c, "color"))?;
+            let intensity = l
+                .intensity
+                .as_ref()
+                .map_or(Ok(1.0), |i| self.non_negative(i, "intensity"))?;
+            scene.add_light(PointLight::new(position, color * intensity));
+        }
+        let mut names = HashMap::new();
+        for (name, m) in &desc.material {
+            let id = scene.add_material(self.material(m.get_ref())?);
+            names.insert(name.as_str(), id);
+        }
+        let resolve = |scene: &mut Scene, m: &S<MaterialRef>| -> R<MaterialId> {
+            match m.get_ref() {
+                MaterialRef::Named(n) => names.get(n.as_str()).copied().ok_or_else(|| {
+                    let mut known: Vec<_> = names.keys().copied().collect();
+                    known.sort_unstable();
+                    self.err(
+                        m,
+                        "material",
+                        format!("no material named {n:?} (defined: {})", known.join(", ")),
+                    )
+                }),
+                MaterialRef::Inline(d) => Ok(scene.add_material(self.material(d)?)),
+            }
+        };
+        for s in &desc.sphere {
+            let s = s.get_ref();
+            let shape = Sphere::new(self.vec3(&s.center, "center")?, self.positive(&s.radius, "radius")?);
+            let material = resolve(&mut scene, &s.material)?;
+            scene.objects.push(Object {
+                shape: shape.into(),
+                material,
+            });
+        }
+        for q in &desc.quad {
+            let q = q.get_ref();
+            let (u, v) = (
+                self.direction(&q.edge_u, "edge_u")?,
+                self.direction(&q.edge_v, "edge_v")?,
+            );
+            if u.cross(v).length_squared() <= 1e-12 * u.length_squared() * v.length_squared() {
+                return Err(self.err(&q.edge_v, "edge_v", "is parallel to edge_u: the quad has no area"));
+            }
+            let shape = Quad::new(self.vec3(&q.corner, "corner")?, u, v);
+            let material = resolve(&mut scene, &q.material)?;
+            scene.objects.push(Object {
+                shape: shape.into(),
+                material,
+            });
+        }
+        for p in &desc.polygon {
+            let p = p.get_ref();
+            let mut vertices = Vec::with_capacity(p.vertices.get_ref().len());
+            for v in p.vertices.get_ref() {
+                if !v.iter().all(|x| x.is_finite()) {
+                    return Err(self.err(&p.vertices, "vertices", format!("vertex {v:?} is not finite")));
+                }
+                vertices.push(Vec3::from_array(*v));
+            }
+            let shape = Polygon::new(vertices).map_err(|e| self.err(&p.vertices, "vertices", e.to_string()))?;
+            let material = resolve(&mut scene, &p.material)?;
+            scene.objects.push(Object {
+                shape: shape.into(),
+                material,
+            });
+        }
+        for c in &desc.cylinder {
+            let c = c.get_ref();
+            let shape = Cylinder::new(
+                self.vec3(&c.base, "base")?,
+                self.direction(&c.axis, "axis")?,
+                self.positive(&c.radius, "radius")?,
+                self.positive(&c.height, "height")?,
+                c.caps.unwrap_or(true),
+            );
+            let material = resolve(&mut scene, &c.material)?;
+            scene.objects.push(Object {
+                shape: shape.into(),
+                material,
+            });
+        }
+        for c in &desc.cone {
+            let c = c.get_ref();
+            let shape = Cone::new(
+                self.vec3(&c.base, "base")?,
+                self.direction(&c.axis, "axis")?,
+                self.positive(&c.radius, "radius")?,
+                self.positive(&c.height, "height")?,
+                c.cap.unwrap_or(true),
+            );
+            let material = resolve(&mut scene, &c.material)?;
+            scene.objects.push(Object {
+                shape: shape.into(),
+                material,
+            });
+        }
+        for t in &desc.triangle {
+            let t = t.get_ref();
+            let [a, b, c] = *t.vertices.get_ref();
+            let [a, b, c] = [a, b, c].map(Vec3::from_array);
+            if !(a.is_finite() && b.is_finite() && c.is_finite()) {
+                return Err(self.err(&t.vertices, "vertices", "vertices must be finite"));
+            }
+            if (b - a).cross(c - a).length_squared() <= 0.0 {
+                return Err(self.err(&t.vertices, "vertices", "the triangle has no area (collinear vertices)"));
+            }
+            let material = resolve(&mut scene, &t.material)?;
+            scene.objects.push(Object {
+                shape: Shape::Triangle(Triangle::new(a, b, c)),
+                material,
+            });
+        }
+        Ok(scene)
+    }
+
+    fn camera(&self, c: &S<CameraDesc>) -> R<Camera> {
+        let d = c.get_ref();
+        let resolution = |v: &Option<S<i64>>, field| {
+            v.as_ref()
+                .map_or(Ok(800), |v| self.int_in(v, field, 1, MAX_RESOLUTION, " pixels"))
+        };
+        let camera = Camera::new(
+            self.vec3(&d.position, "position")?,
+            self.vec3(&d.look_at, "look_at")?,
+            d.up.as_ref().map_or(Ok(Vec3::Y), |u| self.vec3(u, "up"))?,
+            self.finite(&d.fov, "fov")?,
+            resolution(&d.width, "width")?,
+            resolution(&d.height, "height")?,
+        );
+        match camera.rig() {
+            Ok(_) => Ok(camera),
+            Err(e @ CameraError::ZeroDirection) => Err(self.err(&d.look_at, "look_at", e.to_string())),
+            Err(e @ CameraError::BadUp) => Err(d.up.as_ref().map_or_else(
+                || self.err(c, "up", e.to_string()),
+                |u| self.err(u, "up", e.to_string()),
+            )),
+            Err(e @ CameraError::BadFov) => Err(self.err(&d.fov, "fov", e.to_string())),
+        }
+    }
+
+    fn settings(&self, s: &SettingsDesc) -> R<Settings> {
+        let mut out = Settings::default();
+        if let Some(b) = &s.background {
+            out.background = self.color(b, "background")?;
+        }
+        if let Some(d) = &s.max_depth {
+            out.max_depth = self.int_in(d, "max_depth", 1, MAX_DEPTH, "")?;
+        }
+        if let Some(n) = &s.samples {
+            out.samples = self.int_in(n, "samples", 1, MAX_SAMPLES, " per pixel")?;
+        }
+        if let Some(a) = &s.ambient {
+            out.ambient = self.non_negative(a, "ambient")?;
+        }
+        Ok(out)
+    }
+
+    fn material(&self, d: &MaterialDesc) -> R<Material> {
+        let mut m = Material::default();
+        match (&d.color, &d.texture) {
+            (Some(_), Some(t)) => {
+                return Err(self.err(t, "texture", "give a material either a color or a texture, not both"));
+            }
+            (Some(c), None) => m.texture = Texture::Solid(self.color(c, "color")?),
+            (None, Some(t)) => m.texture = self.texture(t.get_ref())?,
+            (None, None) => {}
+        }
+        if let Some(v) = &d.diffuse {
+            m.diffuse = self.non_negative(v, "diffuse")?;
+        }
+        if let Some(v) = &d.specular {
+            m.specular = self.non_negative(v, "specular")?;
+        }
+        if let Some(v) = &d.shininess {
+            m.shininess = self.non_negative(v, "shininess")?;
+        }
+        if let Some(v) = &d.reflectivity {
+            m.reflectivity = self.share(v, "reflectivity")?;
+        }
+        if let Some(v) = &d.transparency {
+            m.transparency = self.share(v, "transparency")?;
+        }
+        if let Some(v) = &d.ior {
+            m.ior = self.positive(v, "ior")?;
+        }
+        if m.reflectivity + m.transparency > 1.0 + 1e-6 {
+            let at = d
+                .transparency
+                .as_ref()
+                .or(d.reflectivity.as_ref())
+                .expect("one is set when the sum exceeds 1");
+            return Err(self.err(
+                at,
+                "transparency",
+                format!(
+                    "reflectivity + transparency must be at most 1 (got {} + {})",
+                    m.reflectivity, m.transparency
+                ),
+            ));
+        }
+        Ok(m)
+    }
+
+    fn texture(&self, t: &TextureDesc) -> R<Texture> {
+        let kind = t.kind.get_ref().as_str();
+        // Fields each kind takes; any other one set is a mistake worth reporting.
+        let allowed: &[&str] = match kind {
+            "stripes" => &["colors", "axis", "width"],
+            "checker" => &["colors", "size", "offset"],
+            "image" => &["path", "scale", "offset"],
+            "planet" => &["seed", "resolution", "scale", "offset"],
+            other => {
+                return Err(self.err(
+                    &t.kind,
+                    "kind",
+                    format!("unknown texture kind {other:?} (expected stripes, checker, image or planet)"),
+                ));
+            }
+        };
+        let present: [(&str, Option<usize>); 9] = [
+            ("colors", t.colors.as_ref().map(|v| v.span().start)),
+            ("axis", t.axis.as_ref().map(|v| v.span().start)),
+            ("width", t.width.as_ref().map(|v| v.span().start)),
+            ("size", t.size.as_ref().map(|v| v.span().start)),
+            ("offset", t.offset.as_ref().map(|v| v.span().start)),
+            ("scale", t.scale.as_ref().map(|v| v.span().start)),
+            ("path", t.path.as_ref().map(|v| v.span().start)),
+            ("seed", t.seed.as_ref().map(|v| v.span().start)),
+            ("resolution", t.resolution.as_ref().map(|v| v.span().start)),
+        ];
+        for (field, at) in present {
+            if let Some(at) = at
+                && !allowed.contains(&field)
+            {
+                return Err(self.error_at(at, field, format!("does not apply to a {kind} texture")));
+            }
+        }
+        let required = |present: bool, field: &str| -> R<()> {
+            if present {
+                Ok(())
+            } else {
+                Err(self.err(&t.kind, field, format!("a {kind} texture needs `{field}`")))
+            }
+        };
+        let colors = || -> R<[Color; 2]> {
+            required(t.colors.is_some(), "colors")?;
+            let c = t.colors.as_ref().expect("checked");
+            let [a, b] = *c.get_ref();
+            let check = |v: V3| {
+                let v = Vec3::from_array(v);
+                if v.is_finite() && v.min_element() >= 0.0 {
+                    Ok(v)
+                } else {
+                    Err(self.err(c, "colors", "colours must be finite and >= 0"))
+                }
+            };
+            Ok([check(a)?, check(b)?])
+        };
+        let vec2 = |v: &Option<S<Vec<f32>>>, field: &str, default: Vec2| -> R<Vec2> {
+            match v {
+                None => Ok(default),
+                Some(s) => match s.get_ref().as_slice() {
+                    [a, b] if a.is_finite() && b.is_finite() => Ok(Vec2::new(*a, *b)),
+                    _ => Err(self.err(s, field, "must be two finite numbers [u, v]")),
+                },
+            }
+        };
+        match kind {
+            "stripes" => {
+                required(t.axis.is_some(), "axis")?;
+                required(t.width.is_some(), "width")?;
+                let axis = self.direction(t.axis.as_ref().expect("checked"), "axis")?.normalize();
+                let width = self.positive(t.width.as_ref().expect("checked"), "width")?;
+                Ok(Texture::Stripes {
+                    axis,
+                    width,
+                    colors: colors()?,
+                })
+            }
+            "checker" => {
+                required(t.size.is_some(), "size")?;
+                let size = self.positive(t.size.as_ref().expect("checked"), "size")?;
+                let offset = match &t.offset {
+                    None => Vec3::ZERO,
+                    Some(s) => match s.get_ref().as_slice() {
+                        [a, b, c] if [a, b, c].iter().all(|x| x.is_finite()) => Vec3::new(*a, *b, *c),
+                        _ => return Err(self.err(s, "offset", "must be three finite numbers [x, y, z]")),
+                    },
+                };
+                Ok(Texture::Checker {
+                    size,
+                    offset,
+                    colors: colors()?,
+                })
+            }
+            "image" => {
+                required(t.path.is_some(), "path")?;
+                let p = t.path.as_ref().expect("checked");
+                let path = self.base_dir.join(p.get_ref());
+                let map = self
+                    .image(&path)
+                    .map_err(|e| self.err(p, "path", format!("{}: {e}", path.display())))?;
+                Ok(Texture::Image {
+                    map,
+                    scale: vec2(&t.scale, "scale", Vec2::ONE)?,
+                    offset: vec2(&t.offset, "offset", Vec2::ZERO)?,
+                })
+            }
+            _ => {
+                let seed = t
+                    .seed
+                    .as_ref()
+                    .map_or(Ok(1), |s| self.int_in(s, "seed", 0, u32::MAX as i64, ""))?;
+                let [w, h] = match &t.resolution {
+                    None => [1024, 512],
+                    Some(r) => {
+                        let [w, h] = *r.get_ref();
+                        if !(1..=MAX_RESOLUTION).contains(&w) || !(1..=MAX_RESOLUTION).contains(&h) {
+                            return Err(self.err(
+                                r,
+                                "resolution",
+                                format!("sides must be between 1 and {MAX_RESOLUTION}"),
+                            ));
+                        }
+                        [w as u32, h as u32]
+                    }
+                };
+                Ok(Texture::Image {
+                    map: Arc::new(planet(w, h, seed as u64)),
+                    scale: vec2(&t.scale, "scale", Vec2::ONE)?,
+                    offset: vec2(&t.offset, "offset", Vec2::ZERO)?,
+                })
+            }
+        }
+    }
+
+    fn image(&self, path: &Path) -> Result<Arc<ImageMap>, crate::texture::TextureError> {
+        if let Some(m) = self.images.borrow().get(path) {
+            return Ok(m.clone());
+        }
+        let map = Arc::new(ImageMap::load(path)?);
+        self.images.borrow_mut().insert(path.to_owned(), map.clone());
+        Ok(map)
+    }
+}

@@ -1,0 +1,115 @@
+//! The scene: what the renderer draws, whether read from a file or built in code.
+//!
+//! ```
+//! use whitted::prelude::*;
+//!
+//! let mut scene = Scene::new(Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 45.0, 64, 64));
+//! let red = scene.add_material(Material::color(Color::new(1.0, 0.0, 0.0)));
+//! scene.add(Sphere::new(Vec3::new(0.0, 0.0, -5.0), 1.0), red);
+//! scene.add_light(PointLight::new(Vec3::new(5.0, 5.0, 0.0), Color::ONE));
+//! let image = Renderer::new(&scene).unwrap().render();
+//! assert_eq!(image.width(), 64);
+//! ```
+
+mod error;
+mod load;
+
+pub use error::SceneError;
+pub use load::{DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_file, load_str};
+
+use crate::camera::Camera;
+use crate::geometry::Shape;
+use crate::light::PointLight;
+use crate::material::Material;
+use crate::math::Color;
+
+/// Index of a material in [`Scene::materials`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MaterialId(pub u32);
+
+/// A shape with its material.
+#[derive(Clone, Debug)]
+pub struct Object {
+    pub shape: Shape,
+    pub material: MaterialId,
+}
+
+/// Rendering settings that belong to the scene (the command line may override them).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub background: Color,
+    /// Longest chain of rays; the primary ray is step 1.
+    pub max_depth: u32,
+    /// Samples per pixel.
+    pub samples: u32,
+    /// Ambient light: this share of a surface's colour shows even in full shadow.
+    pub ambient: f32,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            background: Color::ZERO,
+            max_depth: 10,
+            samples: 1,
+            ambient: 0.2,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub camera: Camera,
+    pub settings: Settings,
+    pub lights: Vec<PointLight>,
+    pub materials: Vec<Material>,
+    pub objects: Vec<Object>,
+}
+
+impl Scene {
+    /// An empty scene with default settings.
+    pub fn new(camera: Camera) -> Self {
+        Scene {
+            camera,
+            settings: Settings::default(),
+            lights: Vec::new(),
+            materials: Vec::new(),
+            objects: Vec::new(),
+        }
+    }
+
+    pub fn add_material(&mut self, material: Material) -> MaterialId {
+        self.materials.push(material);
+        MaterialId(self.materials.len() as u32 - 1)
+    }
+
+    /// Adds a shape (anything that converts into [`Shape`]: `Sphere`, `Quad`, ...).
+    pub fn add(&mut self, shape: impl Into<Shape>, material: MaterialId) -> &mut Self {
+        self.objects.push(Object {
+            shape: shape.into(),
+            material,
+        });
+        self
+    }
+
+    pub fn add_light(&mut self, light: PointLight) -> &mut Self {
+        self.lights.push(light);
+        self
+    }
+
+    pub fn material(&self, id: MaterialId) -> &Material {
+        &self.materials[id.0 as usize]
+    }
+
+    /// Things worth telling the user that do not stop a render.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut w = Vec::new();
+        if self.objects.is_empty() {
+            w.push("the scene has no objects: the image will be the background colour".to_string());
+        }
+        if self.lights.is_empty() {
+            w.push("the scene has no lights: only ambient light will show".to_string());
+        }
+        w
+    }
+}
