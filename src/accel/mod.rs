@@ -14,6 +14,11 @@ pub enum AccelKind {
     None,
 }
 
+impl AccelKind {
+    /// Every structure this build has, for toggles that cycle through them.
+    pub const ALL: &'static [AccelKind] = &[AccelKind::None];
+}
+
 /// The read-only ray-query structure shared by all render threads.
 #[derive(Debug)]
 pub struct World<'s> {
