@@ -9,6 +9,7 @@
 
 mod cone;
 mod cylinder;
+mod mesh;
 mod polygon;
 mod quad;
 mod sphere;
@@ -16,6 +17,7 @@ mod triangle;
 
 pub use cone::Cone;
 pub use cylinder::Cylinder;
+pub use mesh::{Mesh, MeshError, intersect_triangle};
 pub use polygon::{Polygon, PolygonError};
 pub use quad::Quad;
 pub use sphere::Sphere;
@@ -32,6 +34,8 @@ pub struct Hit {
     pub uv: Vec2,
     /// Which part of a compound shape was hit (side wall, base cap, top cap).
     pub part: u8,
+    /// Which element of a shape made of many was hit (a mesh's triangle).
+    pub prim: u32,
 }
 
 /// Geometry at a hit, for shading.
@@ -61,6 +65,8 @@ pub enum Shape {
     Cylinder(Cylinder),
     Cone(Cone),
     Triangle(Triangle),
+    /// Shared, since meshes can be large and scenes are cloned.
+    Mesh(std::sync::Arc<Mesh>),
 }
 
 impl Shape {
@@ -74,6 +80,7 @@ impl Shape {
             Shape::Cylinder(s) => s.intersect(ray, t_min, t_max),
             Shape::Cone(s) => s.intersect(ray, t_min, t_max),
             Shape::Triangle(s) => s.intersect(ray, t_min, t_max),
+            Shape::Mesh(s) => s.intersect(ray, t_min, t_max),
         }
     }
 
@@ -85,6 +92,7 @@ impl Shape {
             Shape::Cylinder(s) => s.surface(ray, hit),
             Shape::Cone(s) => s.surface(ray, hit),
             Shape::Triangle(s) => s.surface(ray, hit),
+            Shape::Mesh(s) => s.surface(ray, hit),
         }
     }
 
@@ -96,6 +104,7 @@ impl Shape {
             Shape::Cylinder(s) => s.bounds(),
             Shape::Cone(s) => s.bounds(),
             Shape::Triangle(s) => s.bounds(),
+            Shape::Mesh(s) => s.bounds(),
         }
     }
 }
@@ -132,6 +141,7 @@ impl Nearest {
 
     pub(crate) fn hit(self) -> Option<Hit> {
         self.part.map(|part| Hit {
+            prim: 0,
             t: self.t,
             uv: Vec2::ZERO,
             part,
@@ -286,3 +296,9 @@ macro_rules! shape_from {
     )*};
 }
 shape_from!(Sphere, Quad, Polygon, Cylinder, Cone, Triangle);
+
+impl From<Mesh> for Shape {
+    fn from(m: Mesh) -> Shape {
+        Shape::Mesh(std::sync::Arc::new(m))
+    }
+}

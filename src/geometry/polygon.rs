@@ -190,6 +190,7 @@ impl Polygon {
             return None;
         }
         Some(Hit {
+            prim: 0,
             t,
             uv: Vec2::ZERO,
             part: part::SIDE,

@@ -57,6 +57,7 @@ impl Quad {
             return None;
         }
         Some(Hit {
+            prim: 0,
             t,
             uv: Vec2::new(a, b),
             part: part::SIDE,

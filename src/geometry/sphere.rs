@@ -39,6 +39,7 @@ impl Sphere {
             return None;
         };
         Some(Hit {
+            prim: 0,
             t,
             uv: Vec2::ZERO,
             part: part::SIDE,

@@ -43,6 +43,7 @@ impl Triangle {
             return None;
         }
         Some(Hit {
+            prim: 0,
             t,
             uv: Vec2::new(b1, b2),
             part: part::SIDE,

@@ -12,6 +12,7 @@
 //! ```
 
 mod error;
+pub mod generate;
 mod load;
 
 pub use error::SceneError;

@@ -7,6 +7,7 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
+use whitted::accel::AccelKind;
 use whitted::film::PendingOutput;
 use whitted::render::Renderer;
 use whitted::scene::{self, MAX_RESOLUTION, Scene};
@@ -47,12 +48,30 @@ struct RenderArgs {
     /// Worker threads (default: all cores).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
     threads: Option<u32>,
+    /// Acceleration structure: a bounding volume hierarchy, or none (test every object).
+    #[arg(long, value_enum, default_value_t = Accel::Bvh)]
+    accel: Accel,
     /// Print ray counts, render time and Mrays/s.
     #[arg(long)]
     stats: bool,
     /// No progress bar and no warnings.
     #[arg(short, long)]
     quiet: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Accel {
+    Bvh,
+    None,
+}
+
+impl From<Accel> for AccelKind {
+    fn from(a: Accel) -> AccelKind {
+        match a {
+            Accel::Bvh => AccelKind::Bvh,
+            Accel::None => AccelKind::None,
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -103,7 +122,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
         args.width.unwrap_or(scene.camera.width),
         args.height.unwrap_or(scene.camera.height),
     );
-    renderer = renderer.size(w, h);
+    renderer = renderer.size(w, h).accel(args.accel.into());
     if let Some(n) = args.spp {
         renderer = renderer.spp(n);
     }
