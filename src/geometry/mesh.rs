@@ -131,6 +131,11 @@ impl Mesh {
         &self.positions
     }
 
+    /// Per-vertex normals; empty when shaded flat.
+    pub fn normals(&self) -> &[Vec3] {
+        &self.normals
+    }
+
     pub fn triangles(&self) -> &[[u32; 3]] {
         &self.triangles
     }

@@ -13,6 +13,7 @@ mod mesh;
 mod polygon;
 mod quad;
 mod sphere;
+mod transformed;
 mod triangle;
 
 pub use cone::Cone;
@@ -21,6 +22,7 @@ pub use mesh::{Mesh, MeshError, intersect_triangle};
 pub use polygon::{Polygon, PolygonError};
 pub use quad::Quad;
 pub use sphere::Sphere;
+pub use transformed::{Transformed, affine, apply as transform};
 pub use triangle::Triangle;
 
 use crate::math::{Aabb, Ray, Vec2, Vec3};
@@ -67,6 +69,8 @@ pub enum Shape {
     Triangle(Triangle),
     /// Shared, since meshes can be large and scenes are cloned.
     Mesh(std::sync::Arc<Mesh>),
+    /// A shape that its transform could not simply rebuild (see [`transform`]).
+    Transformed(Box<Transformed>),
 }
 
 impl Shape {
@@ -81,6 +85,7 @@ impl Shape {
             Shape::Cone(s) => s.intersect(ray, t_min, t_max),
             Shape::Triangle(s) => s.intersect(ray, t_min, t_max),
             Shape::Mesh(s) => s.intersect(ray, t_min, t_max),
+            Shape::Transformed(s) => s.intersect(ray, t_min, t_max),
         }
     }
 
@@ -93,6 +98,7 @@ impl Shape {
             Shape::Cone(s) => s.surface(ray, hit),
             Shape::Triangle(s) => s.surface(ray, hit),
             Shape::Mesh(s) => s.surface(ray, hit),
+            Shape::Transformed(s) => s.surface(ray, hit),
         }
     }
 
@@ -105,6 +111,7 @@ impl Shape {
             Shape::Cone(s) => s.bounds(),
             Shape::Triangle(s) => s.bounds(),
             Shape::Mesh(s) => s.bounds(),
+            Shape::Transformed(s) => s.bounds(),
         }
     }
 }

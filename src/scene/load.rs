@@ -4,7 +4,7 @@
 
 use super::{MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};
-use crate::geometry::{Cone, Cylinder, Polygon, Quad, Shape, Sphere, Triangle};
+use crate::geometry::{self, Cone, Cylinder, Polygon, Quad, Shape, Sphere, Triangle};
 use crate::light::PointLight;
 use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
@@ -73,6 +73,8 @@ struct FileDesc {
     cone: Vec<S<ConeDesc>>,
     #[serde(default)]
     triangle: Vec<S<TriangleDesc>>,
+    #[serde(default)]
+    mesh: Vec<S<MeshDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -163,6 +165,7 @@ struct SphereDesc {
     center: S<V3>,
     radius: S<f32>,
     material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -172,6 +175,7 @@ struct QuadDesc {
     edge_u: S<V3>,
     edge_v: S<V3>,
     material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -179,6 +183,7 @@ struct QuadDesc {
 struct PolygonDesc {
     vertices: S<Vec<V3>>,
     material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -190,6 +195,7 @@ struct CylinderDesc {
     height: S<f32>,
     caps: Option<bool>,
     material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -201,6 +207,32 @@ struct ConeDesc {
     height: S<f32>,
     cap: Option<bool>,
     material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MeshDesc {
+    file: S<String>,
+    smooth: Option<bool>,
+    material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransformDesc {
+    translate: Option<S<V3>>,
+    rotate: Option<S<V3>>,
+    scale: Option<S<Scale>>,
+}
+
+/// `scale = 2` or `scale = [2, 1, 1]`.
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum Scale {
+    Uniform(f32),
+    Axes(V3),
 }
 
 #[derive(Deserialize)]
@@ -208,6 +240,7 @@ struct ConeDesc {
 struct TriangleDesc {
     vertices: S<[V3; 3]>,
     material: S<MaterialRef>,
+    transform: Option<S<TransformDesc>>,
 }
 
 /// What the checks need: the text (to turn byte offsets into lines) and where to find
@@ -380,14 +413,27 @@ impl Ctx<'_> {
                 MaterialRef::Inline(d) => Ok(scene.add_material(self.material(d)?)),
             }
         };
+        let place = |scene: &mut Scene,
+                     shape: Shape,
+                     material: &S<MaterialRef>,
+                     transform: &Option<S<TransformDesc>>|
+         -> R<()> {
+            let material = resolve(scene, material)?;
+            let shape = match transform {
+                None => shape,
+                Some(t) => {
+                    let m = self.transform(t.get_ref())?;
+                    geometry::transform(shape, &m)
+                        .map_err(|e| self.err(t, "transform", format!("makes the polygon degenerate: {e}")))?
+                }
+            };
+            scene.objects.push(Object { shape, material });
+            Ok(())
+        };
         for s in &desc.sphere {
             let s = s.get_ref();
             let shape = Sphere::new(self.vec3(&s.center, "center")?, self.positive(&s.radius, "radius")?);
-            let material = resolve(&mut scene, &s.material)?;
-            scene.objects.push(Object {
-                shape: shape.into(),
-                material,
-            });
+            place(&mut scene, shape.into(), &s.material, &s.transform)?;
         }
         for q in &desc.quad {
             let q = q.get_ref();
@@ -399,11 +445,7 @@ impl Ctx<'_> {
                 return Err(self.err(&q.edge_v, "edge_v", "is parallel to edge_u: the quad has no area"));
             }
             let shape = Quad::new(self.vec3(&q.corner, "corner")?, u, v);
-            let material = resolve(&mut scene, &q.material)?;
-            scene.objects.push(Object {
-                shape: shape.into(),
-                material,
-            });
+            place(&mut scene, shape.into(), &q.material, &q.transform)?;
         }
         for p in &desc.polygon {
             let p = p.get_ref();
@@ -415,11 +457,7 @@ impl Ctx<'_> {
                 vertices.push(Vec3::from_array(*v));
             }
             let shape = Polygon::new(vertices).map_err(|e| self.err(&p.vertices, "vertices", e.to_string()))?;
-            let material = resolve(&mut scene, &p.material)?;
-            scene.objects.push(Object {
-                shape: shape.into(),
-                material,
-            });
+            place(&mut scene, shape.into(), &p.material, &p.transform)?;
         }
         for c in &desc.cylinder {
             let c = c.get_ref();
@@ -430,11 +468,7 @@ impl Ctx<'_> {
                 self.positive(&c.height, "height")?,
                 c.caps.unwrap_or(true),
             );
-            let material = resolve(&mut scene, &c.material)?;
-            scene.objects.push(Object {
-                shape: shape.into(),
-                material,
-            });
+            place(&mut scene, shape.into(), &c.material, &c.transform)?;
         }
         for c in &desc.cone {
             let c = c.get_ref();
@@ -445,11 +479,7 @@ impl Ctx<'_> {
                 self.positive(&c.height, "height")?,
                 c.cap.unwrap_or(true),
             );
-            let material = resolve(&mut scene, &c.material)?;
-            scene.objects.push(Object {
-                shape: shape.into(),
-                material,
-            });
+            place(&mut scene, shape.into(), &c.material, &c.transform)?;
         }
         for t in &desc.triangle {
             let t = t.get_ref();
@@ -461,13 +491,48 @@ impl Ctx<'_> {
             if (b - a).cross(c - a).length_squared() <= 0.0 {
                 return Err(self.err(&t.vertices, "vertices", "the triangle has no area (collinear vertices)"));
             }
-            let material = resolve(&mut scene, &t.material)?;
-            scene.objects.push(Object {
-                shape: Shape::Triangle(Triangle::new(a, b, c)),
-                material,
-            });
+            place(
+                &mut scene,
+                Shape::Triangle(Triangle::new(a, b, c)),
+                &t.material,
+                &t.transform,
+            )?;
+        }
+        for m in &desc.mesh {
+            let m = m.get_ref();
+            let path = self.base_dir.join(m.file.get_ref());
+            let mesh = super::obj::load_obj(&path, m.smooth.unwrap_or(true)).map_err(|e| match e {
+                // A mesh that cannot be opened is reported where the scene names it.
+                SceneError::File { message, .. } if !path.is_file() => {
+                    self.err(&m.file, "file", format!("{}: {message}", path.display()))
+                }
+                other => other,
+            })?;
+            place(&mut scene, mesh.into(), &m.material, &m.transform)?;
         }
         Ok(scene)
+    }
+
+    fn transform(&self, t: &TransformDesc) -> R<glam::Affine3A> {
+        let translate = t
+            .translate
+            .as_ref()
+            .map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "translate"))?;
+        let rotate = t.rotate.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "rotate"))?;
+        let scale = match &t.scale {
+            None => Vec3::ONE,
+            Some(s) => {
+                let v = match s.get_ref() {
+                    Scale::Uniform(k) => Vec3::splat(*k),
+                    Scale::Axes(a) => Vec3::from_array(*a),
+                };
+                if !v.is_finite() || v.cmpeq(Vec3::ZERO).any() {
+                    return Err(self.err(s, "scale", format!("must be finite and non-zero (got {v})")));
+                }
+                v
+            }
+        };
+        Ok(geometry::affine(translate, rotate, scale))
     }
 
     fn camera(&self, c: &S<CameraDesc>) -> R<Camera> {

@@ -14,6 +14,7 @@
 mod error;
 pub mod generate;
 mod load;
+pub mod obj;
 
 pub use error::SceneError;
 pub use load::{DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_file, load_str};
