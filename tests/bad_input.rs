@@ -180,3 +180,54 @@ fn scene_without_objects_or_lights_renders_with_warnings() {
     let out = whitted(&["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "-q"]);
     assert!(out.status.success() && out.stderr.is_empty());
 }
+
+fn mesh_scene(dir: &Path, obj: &Path) -> PathBuf {
+    let scene = dir.join("mesh.toml");
+    let text = format!(
+        "[camera]\nposition = [0, 0, 3]\nlook_at = [0, 0, 0]\nfov = 40\nwidth = 16\nheight = 16\n\n\
+         [[light]]\nposition = [5, 5, 5]\n\n[[mesh]]\nfile = {:?}\nmaterial = {{ color = [1, 1, 1] }}\n",
+        obj.to_str().unwrap()
+    );
+    std::fs::write(&scene, text).unwrap();
+    scene
+}
+
+/// Every malformed OBJ under tests/scenes/bad_obj/ fails like a bad scene, and the
+/// message names the OBJ file and the line (line 0: a whole-file problem).
+#[test]
+fn every_bad_obj_fails_with_file_line_and_statement() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/bad_obj");
+    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
+    files.sort();
+    assert!(files.len() >= 6, "only {} bad OBJ files", files.len());
+    let mut failures = Vec::new();
+    for obj in &files {
+        let name = obj.file_name().unwrap().to_string_lossy().into_owned();
+        let (line, field) = expectation(obj);
+        let scene = mesh_scene(tmp.path(), obj);
+        let out_png = tmp.path().join("out.png");
+        let out = whitted(&["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "-q"]);
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        if out.status.code() != Some(1) || stderr.contains("panicked") || out_png.exists() {
+            failures.push(format!("{name}: status {:?}: {stderr}", out.status));
+            continue;
+        }
+        let location = if line == 0 { format!("{}: ", obj.display()) } else { format!("{}:{line}:", obj.display()) };
+        if !stderr.contains(&location) || !stderr.contains(&field) {
+            failures.push(format!("{name}: expected '{location}' and '{field}' in: {stderr}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn missing_obj_is_reported_where_the_scene_names_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = mesh_scene(tmp.path(), &tmp.path().join("no-such-mesh.obj"));
+    let out_png = tmp.path().join("out.png");
+    let out = whitted(&["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap()]);
+    let stderr = assert_clean_failure(&out, &out_png, "missing OBJ");
+    assert!(stderr.contains(&format!("{}:12:", scene.display())), "{stderr}");
+    assert!(stderr.contains("file") && stderr.contains("no-such-mesh.obj"), "{stderr}");
+}
