@@ -8,14 +8,7 @@ use whitted::prelude::*;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let out = std::env::args().nth(1).unwrap_or_else(|| "three_spheres.png".into());
 
-    let camera = Camera::new(
-        Vec3::new(0.0, 2.0, 6.0),
-        Vec3::new(0.0, 0.5, 0.0),
-        Vec3::Y,
-        40.0,
-        640,
-        400,
-    );
+    let camera = Camera::new(Vec3::new(0.0, 2.0, 6.0), Vec3::new(0.0, 0.5, 0.0), Vec3::Y, 40.0, 640, 400);
     let mut scene = Scene::new(camera);
     scene.settings.background = Color::new(0.1, 0.12, 0.2);
 
@@ -32,14 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mirror = scene.add_material(Material::color(Color::splat(0.8)).reflective(0.8));
 
     scene
-        .add(
-            Quad::new(
-                Vec3::new(-10.0, 0.0, 10.0),
-                Vec3::new(20.0, 0.0, 0.0),
-                Vec3::new(0.0, 0.0, -20.0),
-            ),
-            floor,
-        )
+        .add(Quad::new(Vec3::new(-10.0, 0.0, 10.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -20.0)), floor)
         .add(Sphere::new(Vec3::new(-1.6, 0.8, 0.0), 0.8), red)
         .add(Sphere::new(Vec3::new(0.0, 0.8, 1.0), 0.8), glass)
         .add(Sphere::new(Vec3::new(1.6, 0.8, 0.0), 0.8), mirror)

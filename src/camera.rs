@@ -47,14 +47,7 @@ pub struct CameraRig {
 
 impl Camera {
     pub fn new(position: Vec3, look_at: Vec3, up: Vec3, fov: f32, width: u32, height: u32) -> Self {
-        Camera {
-            position,
-            look_at,
-            up,
-            fov,
-            width,
-            height,
-        }
+        Camera { position, look_at, up, fov, width, height }
     }
 
     pub fn rig(&self) -> Result<CameraRig, CameraError> {
@@ -76,12 +69,7 @@ impl Camera {
         let half_w = half_h * self.width as f32 / self.height as f32;
         let pixel_dx = u * (2.0 * half_w / self.width as f32);
         let pixel_dy = -v * (2.0 * half_h / self.height as f32);
-        Ok(CameraRig {
-            origin: self.position,
-            pixel_dx,
-            pixel_dy,
-            corner: w - half_w * u + half_h * v,
-        })
+        Ok(CameraRig { origin: self.position, pixel_dx, pixel_dy, corner: w - half_w * u + half_h * v })
     }
 }
 
@@ -99,14 +87,7 @@ mod tests {
     use super::*;
 
     fn cam() -> Camera {
-        Camera::new(
-            Vec3::ZERO,
-            Vec3::NEG_Z,
-            Vec3::Y,
-            2.0 * (10.0f32 / 25.0).atan().to_degrees(),
-            800,
-            800,
-        )
+        Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 2.0 * (10.0f32 / 25.0).atan().to_degrees(), 800, 800)
     }
 
     #[test]

@@ -6,6 +6,7 @@
 //! scene files or lets you build a scene in code.
 
 pub mod accel;
+pub mod bench;
 pub mod camera;
 pub mod film;
 pub mod geometry;

@@ -48,17 +48,11 @@ impl Default for Material {
 impl Material {
     /// A plain coloured surface with the default highlight.
     pub fn color(c: Color) -> Self {
-        Material {
-            texture: Texture::Solid(c),
-            ..Default::default()
-        }
+        Material { texture: Texture::Solid(c), ..Default::default() }
     }
 
     pub fn textured(texture: Texture) -> Self {
-        Material {
-            texture,
-            ..Default::default()
-        }
+        Material { texture, ..Default::default() }
     }
 
     /// Builder-style setters, for scenes written in code.

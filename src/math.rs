@@ -16,10 +16,7 @@ pub struct Ray {
 impl Ray {
     /// Builds a ray, normalising `dir`.
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Ray {
-            origin,
-            dir: dir.normalize(),
-        }
+        Ray { origin, dir: dir.normalize() }
     }
 
     pub fn at(&self, t: f32) -> Vec3 {
@@ -35,27 +32,18 @@ pub struct Aabb {
 }
 
 impl Aabb {
-    pub const EMPTY: Aabb = Aabb {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
-    };
+    pub const EMPTY: Aabb = Aabb { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
 
     pub fn from_points(points: impl IntoIterator<Item = Vec3>) -> Self {
         points.into_iter().fold(Aabb::EMPTY, |b, p| b.grow(p))
     }
 
     pub fn grow(self, p: Vec3) -> Self {
-        Aabb {
-            min: self.min.min(p),
-            max: self.max.max(p),
-        }
+        Aabb { min: self.min.min(p), max: self.max.max(p) }
     }
 
     pub fn union(self, o: Aabb) -> Self {
-        Aabb {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-        }
+        Aabb { min: self.min.min(o.min), max: self.max.max(o.max) }
     }
 
     pub fn center(&self) -> Vec3 {
@@ -92,8 +80,5 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let sign = 1.0f32.copysign(n.z);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
-    (
-        Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        Vec3::new(b, sign + n.y * n.y * a, -n.y),
-    )
+    (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
 }

@@ -88,28 +88,39 @@ impl<'s> Renderer<'s> {
     }
 
     /// Renders, calling `progress(tiles_done, tiles_total)` as tiles complete (from
-    /// worker threads, in no particular order).
+    /// worker threads, in no particular order). Building the acceleration structure is
+    /// part of the elapsed time reported.
     pub fn render_with_progress(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
+        self.in_pool(|| {
+            let start = Instant::now();
+            let world = World::new(self.scene, self.accel);
+            let mut out = self.render_tiles(&world, progress);
+            out.elapsed = start.elapsed();
+            out
+        })
+    }
+
+    /// Renders with an acceleration structure built beforehand (benchmarks time the two
+    /// apart). `world` must have been built from this renderer's scene.
+    pub fn render_world(&self, world: &World) -> RenderOutput {
+        self.in_pool(|| self.render_tiles(world, &|_, _| {}))
+    }
+
+    /// Runs `f` on this renderer's thread pool (or the global one).
+    pub fn in_pool<T: Send>(&self, f: impl FnOnce() -> T + Send) -> T {
         match self.threads {
-            Some(n) => {
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(n)
-                    .build()
-                    .expect("thread pool");
-                pool.install(|| self.render_tiles(progress))
-            }
-            None => self.render_tiles(progress),
+            Some(n) => rayon::ThreadPoolBuilder::new().num_threads(n).build().expect("thread pool").install(f),
+            None => f(),
         }
     }
 
-    fn render_tiles(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
+    fn render_tiles(&self, world: &World, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
         let start = Instant::now();
         let mut camera = self.scene.camera;
         camera.width = self.width;
         camera.height = self.height;
         let rig = camera.rig().expect("checked in Renderer::new");
-        let world = World::new(self.scene, self.accel);
-        let integrator = Integrator::new(&world, self.max_depth);
+        let integrator = Integrator::new(world, self.max_depth);
 
         let tiles_x = self.width.div_ceil(TILE);
         let tiles_y = self.height.div_ceil(TILE);
@@ -150,11 +161,6 @@ impl<'s> Renderer<'s> {
                 image.set(x0 + i as u32 % w, y0 + i as u32 / w, c);
             }
         }
-        RenderOutput {
-            image,
-            stats,
-            elapsed: start.elapsed(),
-            spp: self.spp,
-        }
+        RenderOutput { image, stats, elapsed: start.elapsed(), spp: self.spp }
     }
 }

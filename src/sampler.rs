@@ -21,9 +21,7 @@ fn mix64(mut z: u64) -> u64 {
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        let mut r = Rng {
-            state: mix64(seed).wrapping_add(PCG_INC),
-        };
+        let mut r = Rng { state: mix64(seed).wrapping_add(PCG_INC) };
         r.next_u32();
         r
     }
@@ -70,19 +68,13 @@ pub fn pixel_samples(spp: u32, rng: &mut Rng, out: &mut Vec<Vec2>) {
         let cell = 1.0 / k as f32;
         for j in 0..k {
             for i in 0..k {
-                out.push(Vec2::new(
-                    (i as f32 + rng.next_f32()) * cell,
-                    (j as f32 + rng.next_f32()) * cell,
-                ));
+                out.push(Vec2::new((i as f32 + rng.next_f32()) * cell, (j as f32 + rng.next_f32()) * cell));
             }
         }
     } else {
         let cell = 1.0 / spp as f32;
         for i in 0..spp {
-            out.push(Vec2::new(
-                (i as f32 + rng.next_f32()) * cell,
-                (i as f32 + rng.next_f32()) * cell,
-            ));
+            out.push(Vec2::new((i as f32 + rng.next_f32()) * cell, (i as f32 + rng.next_f32()) * cell));
         }
         // Fisher–Yates on the y coordinates decouples rows from columns.
         for i in (1..spp as usize).rev() {

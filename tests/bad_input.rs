@@ -6,10 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn whitted(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_whitted"))
-        .args(args)
-        .output()
-        .expect("run whitted")
+    Command::new(env!("CARGO_BIN_EXE_whitted")).args(args).output().expect("run whitted")
 }
 
 fn bad_dir() -> PathBuf {
@@ -31,20 +28,10 @@ fn expectation(path: &Path) -> (usize, String) {
 
 fn assert_clean_failure(out: &Output, output_file: &Path, what: &str) -> String {
     let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(
-        !out.status.success(),
-        "{what}: exit status was success; stderr: {stderr}"
-    );
-    assert_eq!(
-        out.status.code(),
-        Some(1),
-        "{what}: expected exit code 1; stderr: {stderr}"
-    );
+    assert!(!out.status.success(), "{what}: exit status was success; stderr: {stderr}");
+    assert_eq!(out.status.code(), Some(1), "{what}: expected exit code 1; stderr: {stderr}");
     assert!(!stderr.contains("panicked"), "{what}: panicked: {stderr}");
-    assert!(
-        stderr.starts_with("error: "),
-        "{what}: message should start with 'error: ': {stderr}"
-    );
+    assert!(stderr.starts_with("error: "), "{what}: message should start with 'error: ': {stderr}");
     assert!(!output_file.exists(), "{what}: output file was created");
     stderr
 }
@@ -67,25 +54,15 @@ fn every_bad_scene_fails_with_file_line_and_field() {
         let out = whitted(&["render", path.to_str().unwrap(), "-o", out_png.to_str().unwrap(), "-q"]);
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
         if out.status.code() != Some(1) || stderr.contains("panicked") || out_png.exists() {
-            failures.push(format!(
-                "{name}: status {:?}, output exists {}: {stderr}",
-                out.status,
-                out_png.exists()
-            ));
+            failures.push(format!("{name}: status {:?}, output exists {}: {stderr}", out.status, out_png.exists()));
             continue;
         }
         let location = format!("{}:{line}:", path.display());
         if !stderr.contains(&location) || !stderr.contains(&field) {
-            failures.push(format!(
-                "{name}: expected '{location}' and field '{field}' in: {stderr}"
-            ));
+            failures.push(format!("{name}: expected '{location}' and field '{field}' in: {stderr}"));
         }
     }
-    assert!(
-        failures.is_empty(),
-        "messages missing file:line or field:\n{}",
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "messages missing file:line or field:\n{}", failures.join("\n"));
     assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 0, "files left behind");
 }
 
@@ -102,28 +79,12 @@ fn missing_scene_file_is_named() {
 fn unwritable_output_fails_before_rendering_and_keeps_old_image() {
     let tmp = tempfile::tempdir().unwrap();
     let missing_dir = tmp.path().join("no-dir/x.png");
-    let out = whitted(&[
-        "render",
-        "-o",
-        missing_dir.to_str().unwrap(),
-        "--width",
-        "8",
-        "--height",
-        "8",
-    ]);
+    let out = whitted(&["render", "-o", missing_dir.to_str().unwrap(), "--width", "8", "--height", "8"]);
     let stderr = assert_clean_failure(&out, &missing_dir, "unwritable output");
     assert!(stderr.contains("no-dir/x.png"), "{stderr}");
 
     let not_png = tmp.path().join("x.jpg");
-    let out = whitted(&[
-        "render",
-        "-o",
-        not_png.to_str().unwrap(),
-        "--width",
-        "8",
-        "--height",
-        "8",
-    ]);
+    let out = whitted(&["render", "-o", not_png.to_str().unwrap(), "--width", "8", "--height", "8"]);
     let stderr = assert_clean_failure(&out, &not_png, "non-PNG output");
     assert!(stderr.contains("x.jpg") && stderr.contains("PNG"), "{stderr}");
 
@@ -134,11 +95,7 @@ fn unwritable_output_fails_before_rendering_and_keeps_old_image() {
     let out = whitted(&["render", bad_scene.to_str().unwrap(), "-o", good.to_str().unwrap()]);
     assert!(!out.status.success());
     assert_eq!(std::fs::read(&good).unwrap(), b"previous image");
-    assert_eq!(
-        std::fs::read_dir(tmp.path()).unwrap().count(),
-        1,
-        "temporary files left behind"
-    );
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 1, "temporary files left behind");
 }
 
 #[test]
@@ -164,11 +121,8 @@ fn bad_flags_are_usage_errors_not_panics() {
 fn scene_without_objects_or_lights_renders_with_warnings() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = tmp.path().join("empty.toml");
-    std::fs::write(
-        &scene,
-        "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 40\nwidth = 8\nheight = 8\n",
-    )
-    .unwrap();
+    std::fs::write(&scene, "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 40\nwidth = 8\nheight = 8\n")
+        .unwrap();
     let out_png = tmp.path().join("empty.png");
     let out = whitted(&["render", scene.to_str().unwrap(), "-o", out_png.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&out.stderr);

@@ -7,15 +7,8 @@ use whitted::prelude::*;
 use whitted::scene;
 
 fn whitted(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_whitted"))
-        .args(args)
-        .output()
-        .expect("run whitted");
-    assert!(
-        out.status.success(),
-        "whitted {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = Command::new(env!("CARGO_BIN_EXE_whitted")).args(args).output().expect("run whitted");
+    assert!(out.status.success(), "whitted {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
 }
 
 fn manifest(p: &str) -> PathBuf {
@@ -32,13 +25,7 @@ fn default_scene_is_the_room_file_byte_for_byte() {
     let (a, b) = (tmp.path().join("a.png"), tmp.path().join("b.png"));
     let room = manifest("scenes/room.toml");
     let small = ["--width", "120", "--height", "120", "-q"];
-    whitted(
-        &[
-            &["render", room.to_str().unwrap(), "-o", a.to_str().unwrap()],
-            &small[..],
-        ]
-        .concat(),
-    );
+    whitted(&[&["render", room.to_str().unwrap(), "-o", a.to_str().unwrap()], &small[..]].concat());
     whitted(&[&["render", "-o", b.to_str().unwrap()], &small[..]].concat());
     assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
 }

@@ -29,10 +29,7 @@ impl Node {
     }
 
     fn bounds(&self) -> Aabb {
-        Aabb {
-            min: Vec3::from_array(self.min),
-            max: Vec3::from_array(self.max),
-        }
+        Aabb { min: Vec3::from_array(self.min), max: Vec3::from_array(self.max) }
     }
 }
 
@@ -73,10 +70,7 @@ struct RayBox {
 impl RayBox {
     #[inline]
     fn new(ray: &Ray) -> Self {
-        RayBox {
-            origin: ray.origin.into(),
-            inv_dir: Vec3A::ONE / Vec3A::from(ray.dir),
-        }
+        RayBox { origin: ray.origin.into(), inv_dir: Vec3A::ONE / Vec3A::from(ray.dir) }
     }
 
     /// Entry distance into the node's box if the ray meets it within `(t_min, t_max)`.
@@ -96,21 +90,10 @@ impl Bvh {
     pub fn build(bounds: &[Aabb]) -> Bvh {
         let mut indices: Vec<u32> = (0..bounds.len() as u32).collect();
         if bounds.is_empty() {
-            return Bvh {
-                nodes: vec![Node {
-                    min: [0.0; 3],
-                    first: 0,
-                    max: [0.0; 3],
-                    count: 0,
-                }],
-                indices,
-            };
+            return Bvh { nodes: vec![Node { min: [0.0; 3], first: 0, max: [0.0; 3], count: 0 }], indices };
         }
         let centroids: Vec<Vec3> = bounds.iter().map(Aabb::center).collect();
-        let b = Builder {
-            bounds,
-            centroids: &centroids,
-        };
+        let b = Builder { bounds, centroids: &centroids };
         let nodes = b.subtree(&mut indices, 0, 0);
         Bvh { nodes, indices }
     }
@@ -232,10 +215,8 @@ impl Builder<'_> {
             return vec![root];
         };
         let (l, r) = idx.split_at_mut(mid);
-        let (left, right) = rayon::join(
-            || self.subtree(l, offset, depth + 1),
-            || self.subtree(r, offset + mid, depth + 1),
-        );
+        let (left, right) =
+            rayon::join(|| self.subtree(l, offset, depth + 1), || self.subtree(r, offset + mid, depth + 1));
         // Lay out: root, the two child roots, then the rest of each subtree.
         let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
         root.count = 0;
@@ -273,12 +254,7 @@ impl Builder<'_> {
     /// A leaf over `idx`, with its box.
     fn leaf(&self, idx: &[u32], offset: usize) -> Node {
         let b = idx.iter().fold(Aabb::EMPTY, |b, &i| b.union(self.bounds[i as usize]));
-        Node {
-            min: b.min.to_array(),
-            first: offset as u32,
-            max: b.max.to_array(),
-            count: idx.len() as u32,
-        }
+        Node { min: b.min.to_array(), first: offset as u32, max: b.max.to_array(), count: idx.len() as u32 }
     }
 
     /// Reorders `idx` into two non-empty halves and returns where the right one starts,
@@ -425,13 +401,7 @@ mod tests {
 
     #[test]
     fn identical_boxes_still_make_bounded_leaves() {
-        let b = vec![
-            Aabb {
-                min: Vec3::ZERO,
-                max: Vec3::ONE
-            };
-            100
-        ];
+        let b = vec![Aabb { min: Vec3::ZERO, max: Vec3::ONE }; 100];
         let bvh = Bvh::build(&b);
         check(&bvh, &b);
         assert!(bvh.nodes.iter().all(|n| n.count as usize <= MAX_LEAF));
@@ -440,16 +410,8 @@ mod tests {
     #[test]
     fn build_is_deterministic_across_thread_counts() {
         let b = boxes(50_000, 9);
-        let one = rayon::ThreadPoolBuilder::new()
-            .num_threads(1)
-            .build()
-            .unwrap()
-            .install(|| Bvh::build(&b));
-        let four = rayon::ThreadPoolBuilder::new()
-            .num_threads(4)
-            .build()
-            .unwrap()
-            .install(|| Bvh::build(&b));
+        let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(|| Bvh::build(&b));
+        let four = rayon::ThreadPoolBuilder::new().num_threads(4).build().unwrap().install(|| Bvh::build(&b));
         assert_eq!(one.nodes, four.nodes);
         assert_eq!(one.indices, four.indices);
     }
@@ -466,12 +428,7 @@ mod tests {
             Visit::Continue(t)
         });
         for (i, bb) in b.iter().enumerate() {
-            let n = Node {
-                min: bb.min.to_array(),
-                first: 0,
-                max: bb.max.to_array(),
-                count: 1,
-            };
+            let n = Node { min: bb.min.to_array(), first: 0, max: bb.max.to_array(), count: 1 };
             if rb.enter(&n, 0.0, f32::INFINITY).is_some() {
                 assert!(visited[i], "box {i} crossed but not visited");
             }

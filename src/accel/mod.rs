@@ -58,27 +58,18 @@ struct MeshBvh {
 
 impl MeshBvh {
     fn build(mesh: &Mesh) -> MeshBvh {
-        let bounds: Vec<_> = (0..mesh.triangle_count())
-            .map(|i| crate::math::Aabb::from_points(mesh.corners(i)))
-            .collect();
+        let bounds: Vec<_> =
+            (0..mesh.triangle_count()).map(|i| crate::math::Aabb::from_points(mesh.corners(i))).collect();
         let bvh = Bvh::build(&bounds);
         let triangles = bvh
             .indices
             .iter()
             .map(|&id| {
                 let [v0, v1, v2] = mesh.corners(id as usize);
-                PackedTriangle {
-                    v0,
-                    e1: v1 - v0,
-                    e2: v2 - v0,
-                    id,
-                }
+                PackedTriangle { v0, e1: v1 - v0, e2: v2 - v0, id }
             })
             .collect();
-        MeshBvh {
-            nodes: bvh.nodes,
-            triangles,
-        }
+        MeshBvh { nodes: bvh.nodes, triangles }
     }
 
     fn memory_bytes(&self) -> usize {
@@ -98,12 +89,7 @@ impl MeshBvh {
                     && best.as_ref().is_none_or(|b| t < b.t || tri.id < b.prim)
                 {
                     t_cur = t;
-                    best = Some(Hit {
-                        t,
-                        uv: Vec2::new(b1, b2),
-                        part: part::SIDE,
-                        prim: tri.id,
-                    });
+                    best = Some(Hit { t, uv: Vec2::new(b1, b2), part: part::SIDE, prim: tri.id });
                 }
             }
             Visit::Continue(t_cur)
@@ -147,11 +133,7 @@ pub struct World<'s> {
 impl<'s> World<'s> {
     pub fn new(scene: &'s Scene, kind: AccelKind) -> Self {
         let start = Instant::now();
-        let transmission = scene
-            .objects
-            .iter()
-            .map(|o| scene.material(o.material).transparency)
-            .collect();
+        let transmission = scene.objects.iter().map(|o| scene.material(o.material).transparency).collect();
         let (top, meshes) = match kind {
             AccelKind::None => (Bvh::default(), scene.objects.iter().map(|_| None).collect()),
             AccelKind::Bvh => {
@@ -168,14 +150,7 @@ impl<'s> World<'s> {
                 (Bvh::build(&bounds), meshes)
             }
         };
-        World {
-            scene,
-            kind,
-            top,
-            meshes,
-            transmission,
-            build_time: start.elapsed(),
-        }
+        World { scene, kind, top, meshes, transmission, build_time: start.elapsed() }
     }
 
     pub fn scene(&self) -> &'s Scene {
@@ -349,17 +324,10 @@ mod tests {
             for i in 0..40_000 {
                 let origin = v(&mut r, 30.0);
                 let ray = Ray::new(origin, unit(&mut r));
-                let (a, b) = (
-                    bvh.closest(&ray, 0.0, f32::INFINITY),
-                    brute.closest(&ray, 0.0, f32::INFINITY),
-                );
+                let (a, b) = (bvh.closest(&ray, 0.0, f32::INFINITY), brute.closest(&ray, 0.0, f32::INFINITY));
                 assert_eq!(a, b, "seed {seed} ray {i}: {ray:?}");
                 let t_max = 5.0 + 20.0 * r.next_f32();
-                assert_eq!(
-                    bvh.transmittance(&ray, t_max),
-                    brute.transmittance(&ray, t_max),
-                    "seed {seed} ray {i}"
-                );
+                assert_eq!(bvh.transmittance(&ray, t_max), brute.transmittance(&ray, t_max), "seed {seed} ray {i}");
                 rays += 1;
             }
         }

@@ -24,11 +24,7 @@ pub enum OutputError {
 
 impl Image {
     pub fn new(width: u32, height: u32) -> Self {
-        Image {
-            width,
-            height,
-            pixels: vec![Color::ZERO; width as usize * height as usize],
-        }
+        Image { width, height, pixels: vec![Color::ZERO; width as usize * height as usize] }
     }
 
     pub fn width(&self) -> u32 {
@@ -71,10 +67,7 @@ pub struct PendingOutput {
 impl PendingOutput {
     /// Checks up front that `path` can be written (before spending time rendering).
     pub fn create(path: &Path) -> Result<Self, OutputError> {
-        let is_png = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+        let is_png = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png"));
         if !is_png {
             return Err(OutputError::NotPng { path: path.to_owned() });
         }
@@ -86,32 +79,20 @@ impl PendingOutput {
             .prefix(".whitted-")
             .suffix(".png.tmp")
             .tempfile_in(dir)
-            .map_err(|source| OutputError::Io {
-                path: path.to_owned(),
-                source,
-            })?;
-        Ok(PendingOutput {
-            path: path.to_owned(),
-            temp,
-        })
+            .map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
+        Ok(PendingOutput { path: path.to_owned(), temp })
     }
 
     /// Encodes `image` into the temporary file, syncs it and renames it into place.
     pub fn commit(mut self, image: &Image) -> Result<(), OutputError> {
         let path = self.path;
-        let io_err = |source| OutputError::Io {
-            path: path.clone(),
-            source,
-        };
+        let io_err = |source| OutputError::Io { path: path.clone(), source };
         {
             let mut w = std::io::BufWriter::new(self.temp.as_file_mut());
             image
                 .to_rgb8()
                 .write_to(&mut w, image::ImageFormat::Png)
-                .map_err(|source| OutputError::Encode {
-                    path: path.clone(),
-                    source,
-                })?;
+                .map_err(|source| OutputError::Encode { path: path.clone(), source })?;
             w.flush().map_err(io_err)?;
         }
         self.temp.as_file().sync_all().map_err(io_err)?;
@@ -155,13 +136,7 @@ mod tests {
 
     #[test]
     fn unwritable_and_non_png_paths_are_refused_up_front() {
-        assert!(matches!(
-            PendingOutput::create(Path::new("/nonexistent-dir/x.png")),
-            Err(OutputError::Io { .. })
-        ));
-        assert!(matches!(
-            PendingOutput::create(Path::new("x.jpg")),
-            Err(OutputError::NotPng { .. })
-        ));
+        assert!(matches!(PendingOutput::create(Path::new("/nonexistent-dir/x.png")), Err(OutputError::Io { .. })));
+        assert!(matches!(PendingOutput::create(Path::new("x.jpg")), Err(OutputError::NotPng { .. })));
     }
 }

@@ -16,13 +16,7 @@ pub struct Cone {
 impl Cone {
     /// A zero `axis` falls back to +y rather than turning every later hit into NaN.
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32, cap: bool) -> Self {
-        Cone {
-            base,
-            axis: axis.normalize_or(Vec3::Y),
-            radius,
-            height,
-            cap,
-        }
+        Cone { base, axis: axis.normalize_or(Vec3::Y), radius, height, cap }
     }
 
     pub fn apex(&self) -> Vec3 {
@@ -90,33 +84,17 @@ impl Cone {
         let (e1, e2) = orthonormal_basis(self.axis);
         let u = turn_fraction(radial, e1, e2);
         if hit.part == part::BASE_CAP {
-            let rho = if self.radius > 0.0 {
-                (radial.length() / self.radius).min(1.0)
-            } else {
-                0.0
-            };
-            return Surface {
-                point: self.base + radial,
-                normal: -self.axis,
-                uv: Vec2::new(u, rho),
-            };
+            let rho = if self.radius > 0.0 { (radial.length() / self.radius).min(1.0) } else { 0.0 };
+            return Surface { point: self.base + radial, normal: -self.axis, uv: Vec2::new(u, rho) };
         }
         let out = radial.normalize_or_zero();
         // Perpendicular to the generator (height·axis - radius·out) in the plane of the
         // axis; at the apex, where `out` is undefined, it degrades to the axis.
         let normal = (self.height * out + self.radius * self.axis).normalize_or(self.axis);
-        let v = if self.height > 0.0 {
-            (h / self.height).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let v = if self.height > 0.0 { (h / self.height).clamp(0.0, 1.0) } else { 0.0 };
         // Snapped radially onto the side so secondary rays start on the surface.
         let rho = self.radius * (1.0 - v);
-        Surface {
-            point: self.base + h * self.axis + rho * out,
-            normal,
-            uv: Vec2::new(u, v),
-        }
+        Surface { point: self.base + h * self.axis + rho * out, normal, uv: Vec2::new(u, v) }
     }
 
     /// The base disc's box grown to the apex.
@@ -185,10 +163,7 @@ mod tests {
         let c = upright(true);
         let down = [0.0, 0.0, -1.0];
         // At y = 0 the side's radius is 0.5.
-        assert_eq!(
-            c.intersect(&ray([0.5 + 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(c.intersect(&ray([0.5 + 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY), None);
         let (h, s) = hit(&c, &ray([0.5 - 1e-3, 0.0, 0.0], down));
         assert_close(h.t, 5.0 - (0.25f32 - 0.499 * 0.499).sqrt(), 2e-4);
         assert!(s.normal.is_finite());
@@ -200,28 +175,16 @@ mod tests {
     fn mirror_nappe_is_not_hit() {
         let c = upright(true);
         // At y = 2 the mirror cone above the apex would have radius 0.5.
-        assert_eq!(
-            c.intersect(&ray([0.0, 2.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
-        assert_eq!(
-            c.intersect(&ray([0.2, 1.5, -5.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(c.intersect(&ray([0.0, 2.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
+        assert_eq!(c.intersect(&ray([0.2, 1.5, -5.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn cone_behind_origin_is_missed() {
         for cap in [false, true] {
             let c = upright(cap);
-            assert_eq!(
-                c.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY),
-                None
-            );
-            assert_eq!(
-                c.intersect(&ray([0.0, 5.0, -5.0], [0.0, 1.0, 0.0]), 0.0, f32::INFINITY),
-                None
-            );
+            assert_eq!(c.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
+            assert_eq!(c.intersect(&ray([0.0, 5.0, -5.0], [0.0, 1.0, 0.0]), 0.0, f32::INFINITY), None);
         }
     }
 
@@ -294,14 +257,8 @@ mod tests {
         assert_close(h.t, 4.995, 2e-5);
         assert_vec_close(s.normal, side_normal(Vec3::Z), 1e-4);
         // Tangent-ish and just above the apex: miss.
-        assert_eq!(
-            c.intersect(&ray([0.006, 0.99, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
-        assert_eq!(
-            c.intersect(&ray([0.0, 1.001, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(c.intersect(&ray([0.006, 0.99, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
+        assert_eq!(c.intersect(&ray([0.0, 1.001, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
         // Steeply from far away, aimed just under the apex: enters the side right there.
         let from = Vec3::new(3.0, 21.0, -5.0);
         let r = Ray::new(from, Vec3::new(0.0, 0.99, -5.0) - from);
@@ -384,10 +341,7 @@ mod tests {
             for j in 0..=10 {
                 let f = j as f32 / 10.0;
                 let p = c.base + f * c.height * c.axis + (1.0 - f) * c.radius * (a.cos() * e1 + a.sin() * e2);
-                assert!(
-                    p.cmpge(b.min - 1e-5).all() && p.cmple(b.max + 1e-5).all(),
-                    "{p} outside {b:?}"
-                );
+                assert!(p.cmpge(b.min - 1e-5).all() && p.cmple(b.max + 1e-5).all(), "{p} outside {b:?}");
                 lo = lo.min(p);
                 hi = hi.max(p);
             }
@@ -429,11 +383,7 @@ mod tests {
         for _ in 0..4000 {
             let r = rng.ray(b.min, b.max, 2.5);
             let t_min = if rng.unit() < 0.5 { 0.0 } else { rng.range(0.0, 2.0) };
-            let t_max = if rng.unit() < 0.5 {
-                f32::INFINITY
-            } else {
-                t_min + rng.range(0.0, 8.0)
-            };
+            let t_max = if rng.unit() < 0.5 { f32::INFINITY } else { t_min + rng.range(0.0, 8.0) };
             let Some(h) = c.intersect(&r, t_min, t_max) else {
                 if cap {
                     assert_no_crossing(&c, &r, t_min, t_max.min(t_min + 20.0));
@@ -472,10 +422,7 @@ mod tests {
         }
         for k in 1..64 {
             let t = t0 + (t1 - t0) * k as f32 / 64.0;
-            assert!(
-                sdf(c, r.at(t)) * start.signum() > -1e-3,
-                "skipped a crossing at {t} before {t1}: {r:?}"
-            );
+            assert!(sdf(c, r.at(t)) * start.signum() > -1e-3, "skipped a crossing at {t} before {t1}: {r:?}");
         }
     }
 

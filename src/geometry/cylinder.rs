@@ -16,13 +16,7 @@ pub struct Cylinder {
 impl Cylinder {
     /// A zero `axis` falls back to +y rather than turning every later hit into NaN.
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32, caps: bool) -> Self {
-        Cylinder {
-            base,
-            axis: axis.normalize_or(Vec3::Y),
-            radius,
-            height,
-            caps,
-        }
+        Cylinder { base, axis: axis.normalize_or(Vec3::Y), radius, height, caps }
     }
 
     /// Nearest of the side wall and (with `caps`) both caps. Boundaries are inclusive:
@@ -78,27 +72,16 @@ impl Cylinder {
         let (e1, e2) = orthonormal_basis(self.axis);
         let (point, normal, uv) = match hit.part {
             part::BASE_CAP | part::TOP_CAP => {
-                let (plane, normal) = if hit.part == part::TOP_CAP {
-                    (self.height, self.axis)
-                } else {
-                    (0.0, -self.axis)
-                };
-                let rho = if self.radius > 0.0 {
-                    (radial.length() / self.radius).min(1.0)
-                } else {
-                    0.0
-                };
+                let (plane, normal) =
+                    if hit.part == part::TOP_CAP { (self.height, self.axis) } else { (0.0, -self.axis) };
+                let rho = if self.radius > 0.0 { (radial.length() / self.radius).min(1.0) } else { 0.0 };
                 // Polar: u around the axis as on the wall (the seam lines up), v outwards.
                 let uv = Vec2::new(turn_fraction(radial, e1, e2), rho);
                 (self.base + plane * self.axis + radial, normal, uv)
             }
             _ => {
                 let normal = radial.normalize_or(e1);
-                let v = if self.height > 0.0 {
-                    (h / self.height).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
+                let v = if self.height > 0.0 { (h / self.height).clamp(0.0, 1.0) } else { 0.0 };
                 let uv = Vec2::new(turn_fraction(radial, e1, e2), v);
                 // Snapped onto the wall so secondary rays start on the surface.
                 (self.base + h * self.axis + self.radius * normal, normal, uv)
@@ -179,13 +162,8 @@ mod tests {
     fn grazing_side_tangent_conventions() {
         let c = upright(true);
         let down = [0.0, 0.0, -1.0];
-        assert_eq!(
-            c.intersect(&ray([1.0 + 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY),
-            None
-        );
-        let h = c
-            .intersect(&ray([1.0 - 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY)
-            .unwrap();
+        assert_eq!(c.intersect(&ray([1.0 + 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY), None);
+        let h = c.intersect(&ray([1.0 - 1e-3, 0.0, 0.0], down), 0.0, f32::INFINITY).unwrap();
         assert_close(h.t, 5.0 - (1.0f32 - 0.999 * 0.999).sqrt(), 1e-4);
         // Exactly tangent: counts as a hit, with a finite normal.
         let r = ray([1.0, 0.0, 0.0], down);
@@ -205,18 +183,10 @@ mod tests {
         assert_eq!(h.part, part::TOP_CAP);
         assert_close(h.t, 2.0, 1e-5);
         // Just outside the wall, parallel: miss.
-        assert_eq!(
-            c.intersect(&ray([1.001, 3.0, -5.0], [0.0, -1.0, 0.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(c.intersect(&ray([1.001, 3.0, -5.0], [0.0, -1.0, 0.0]), 0.0, f32::INFINITY), None);
         // Skimming just over the top: miss; just under: side wall.
-        assert_eq!(
-            c.intersect(&ray([0.0, 1.001, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
-        let h = c
-            .intersect(&ray([0.0, 0.999, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-            .unwrap();
+        assert_eq!(c.intersect(&ray([0.0, 1.001, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
+        let h = c.intersect(&ray([0.0, 0.999, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).unwrap();
         assert_eq!(h.part, part::SIDE);
         assert_close(h.t, 4.0, 1e-5);
     }
@@ -225,14 +195,8 @@ mod tests {
     fn cylinder_behind_origin_is_missed() {
         for caps in [false, true] {
             let c = upright(caps);
-            assert_eq!(
-                c.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY),
-                None
-            );
-            assert_eq!(
-                c.intersect(&ray([0.0, 5.0, -5.0], [0.0, 1.0, 0.0]), 0.0, f32::INFINITY),
-                None
-            );
+            assert_eq!(c.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
+            assert_eq!(c.intersect(&ray([0.0, 5.0, -5.0], [0.0, 1.0, 0.0]), 0.0, f32::INFINITY), None);
         }
     }
 
@@ -291,10 +255,7 @@ mod tests {
         assert_close(h.t, 4.0, 1e-5);
         assert_vec_close(s.normal, -Vec3::Y, 1e-6);
         // Open tube: straight through.
-        assert_eq!(
-            upright(false).intersect(&ray([0.0, 5.0, -5.0], [0.0, -1.0, 0.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(upright(false).intersect(&ray([0.0, 5.0, -5.0], [0.0, -1.0, 0.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
@@ -394,11 +355,7 @@ mod tests {
         for _ in 0..4000 {
             let r = rng.ray(b.min, b.max, 2.5);
             let t_min = if rng.unit() < 0.5 { 0.0 } else { rng.range(0.0, 2.0) };
-            let t_max = if rng.unit() < 0.5 {
-                f32::INFINITY
-            } else {
-                t_min + rng.range(0.0, 8.0)
-            };
+            let t_max = if rng.unit() < 0.5 { f32::INFINITY } else { t_min + rng.range(0.0, 8.0) };
             let Some(h) = c.intersect(&r, t_min, t_max) else {
                 if caps {
                     assert_no_crossing(&c, &r, t_min, t_max.min(t_min + 20.0));
@@ -437,10 +394,7 @@ mod tests {
         }
         for k in 1..64 {
             let t = t0 + (t1 - t0) * k as f32 / 64.0;
-            assert!(
-                sdf(c, r.at(t)) * start.signum() > -1e-3,
-                "skipped a crossing at {t} before {t1}: {r:?}"
-            );
+            assert!(sdf(c, r.at(t)) * start.signum() > -1e-3, "skipped a crossing at {t} before {t1}: {r:?}");
         }
     }
 

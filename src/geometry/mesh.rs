@@ -33,11 +33,7 @@ pub enum MeshError {
     #[error("vertex {0} is not finite")]
     NonFinite(usize),
     #[error("{what} has {got} entries for {count} vertices")]
-    Mismatch {
-        what: &'static str,
-        got: usize,
-        count: usize,
-    },
+    Mismatch { what: &'static str, got: usize, count: usize },
 }
 
 /// Möller–Trumbore on a triangle given as a corner and two edges; returns (t, b1, b2).
@@ -82,30 +78,16 @@ impl Mesh {
         }
         for (what, got) in [("normals", normals.len()), ("uvs", uvs.len())] {
             if got != 0 && got != positions.len() {
-                return Err(MeshError::Mismatch {
-                    what,
-                    got,
-                    count: positions.len(),
-                });
+                return Err(MeshError::Mismatch { what, got, count: positions.len() });
             }
         }
         for (t, tri) in triangles.iter().enumerate() {
             if let Some(&index) = tri.iter().find(|&&i| i as usize >= positions.len()) {
-                return Err(MeshError::BadIndex {
-                    triangle: t,
-                    index,
-                    count: positions.len(),
-                });
+                return Err(MeshError::BadIndex { triangle: t, index, count: positions.len() });
             }
         }
         let bounds = Aabb::from_points(positions.iter().copied());
-        let mut mesh = Mesh {
-            positions,
-            normals,
-            uvs,
-            triangles,
-            bounds,
-        };
+        let mut mesh = Mesh { positions, normals, uvs, triangles, bounds };
         if !smooth {
             mesh.normals.clear();
         } else if mesh.normals.is_empty() || mesh.normals.iter().any(|n| !n.is_finite()) {
@@ -180,12 +162,7 @@ impl Mesh {
             let [v0, v1, v2] = self.corners(i);
             if let Some((t, b1, b2)) = intersect_triangle(v0, v1 - v0, v2 - v0, ray, t_min, t_max) {
                 t_max = t;
-                best = Some(Hit {
-                    t,
-                    uv: Vec2::new(b1, b2),
-                    part: part::SIDE,
-                    prim: i as u32,
-                });
+                best = Some(Hit { t, uv: Vec2::new(b1, b2), part: part::SIDE, prim: i as u32 });
             }
         }
         best
@@ -293,14 +270,7 @@ mod tests {
     fn computed_normals_point_out_of_a_closed_shape() {
         // A tetrahedron wound outwards.
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z];
-        let m = Mesh::new(
-            p,
-            vec![],
-            vec![],
-            vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
-            true,
-        )
-        .unwrap();
+        let m = Mesh::new(p, vec![], vec![], vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], true).unwrap();
         let r = Ray::new(Vec3::splat(2.0), -Vec3::ONE);
         let s = m.surface(&r, &m.intersect(&r, 0.0, 10.0).unwrap());
         assert!(s.normal.dot(Vec3::ONE) > 0.0, "{}", s.normal);
@@ -309,24 +279,14 @@ mod tests {
     #[test]
     fn bad_meshes_are_refused() {
         let p = vec![Vec3::ZERO, Vec3::X, Vec3::Y];
-        assert_eq!(
-            Mesh::new(p.clone(), vec![], vec![], vec![], true),
-            Err(MeshError::Empty)
-        );
+        assert_eq!(Mesh::new(p.clone(), vec![], vec![], vec![], true), Err(MeshError::Empty));
         assert_eq!(
             Mesh::new(p.clone(), vec![], vec![], vec![[0, 1, 3]], true),
-            Err(MeshError::BadIndex {
-                triangle: 0,
-                index: 3,
-                count: 3
-            })
+            Err(MeshError::BadIndex { triangle: 0, index: 3, count: 3 })
         );
         let mut bad = p.clone();
         bad[1].y = f32::NAN;
-        assert_eq!(
-            Mesh::new(bad, vec![], vec![], vec![[0, 1, 2]], true),
-            Err(MeshError::NonFinite(1))
-        );
+        assert_eq!(Mesh::new(bad, vec![], vec![], vec![[0, 1, 2]], true), Err(MeshError::NonFinite(1)));
         assert!(matches!(
             Mesh::new(p, vec![Vec3::Z], vec![], vec![[0, 1, 2]], true),
             Err(MeshError::Mismatch { what: "normals", .. })

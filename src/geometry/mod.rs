@@ -126,11 +126,7 @@ pub(crate) struct Nearest {
 
 impl Nearest {
     pub(crate) fn new(t_min: f32, t_max: f32) -> Self {
-        Nearest {
-            t_min,
-            t: t_max,
-            part: None,
-        }
+        Nearest { t_min, t: t_max, part: None }
     }
 
     /// True if `t` is in range and nearer than the best so far; the caller then checks
@@ -147,12 +143,7 @@ impl Nearest {
     }
 
     pub(crate) fn hit(self) -> Option<Hit> {
-        self.part.map(|part| Hit {
-            prim: 0,
-            t: self.t,
-            uv: Vec2::ZERO,
-            part,
-        })
+        self.part.map(|part| Hit { prim: 0, t: self.t, uv: Vec2::ZERO, part })
     }
 }
 
@@ -160,10 +151,7 @@ impl Nearest {
 /// `radius * sqrt(1 - axis_i²)` from its center, which is tighter than a sphere's box.
 pub(crate) fn disc_bounds(center: Vec3, axis: Vec3, radius: f32) -> Aabb {
     let reach = radius * (Vec3::ONE - axis * axis).max(Vec3::ZERO).sqrt();
-    Aabb {
-        min: center - reach,
-        max: center + reach,
-    }
+    Aabb { min: center - reach, max: center + reach }
 }
 
 /// Angle of `v` around an axis as a fraction of a turn in [0, 1), measured in the
@@ -223,11 +211,7 @@ pub(crate) mod test_util {
         pub fn ray(&mut self, lo: Vec3, hi: Vec3, spread: f32) -> Ray {
             let pad = Vec3::splat(spread);
             let origin = self.in_box(lo - pad, hi + pad);
-            let dir = if self.unit() < 0.5 {
-                self.in_box(lo, hi) - origin
-            } else {
-                self.direction()
-            };
+            let dir = if self.unit() < 0.5 { self.in_box(lo, hi) - origin } else { self.direction() };
             if dir.length_squared() < 1e-12 {
                 return Ray::new(origin, Vec3::X);
             }
@@ -265,11 +249,7 @@ mod tests {
             Shape::Polygon(Polygon::new(square).unwrap()),
             Shape::Cylinder(Cylinder::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z, 1.0, 2.0, true)),
             Shape::Cone(Cone::new(Vec3::new(0.0, 0.0, -1.0), Vec3::Z, 1.0, 2.0, true)),
-            Shape::Triangle(Triangle::new(
-                Vec3::new(-1.0, -1.0, 0.0),
-                Vec3::new(1.0, -1.0, 0.0),
-                Vec3::Y,
-            )),
+            Shape::Triangle(Triangle::new(Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::Y)),
         ];
         let expected_t = [4.0, 5.0, 5.0, 4.0, 4.0, 5.0];
         for (shape, t) in shapes.iter().zip(expected_t) {

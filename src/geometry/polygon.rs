@@ -85,11 +85,7 @@ impl Polygon {
         let mut newell = Vec3::ZERO;
         for (i, &a) in vertices.iter().enumerate() {
             let (a, b) = (a - centroid, vertices[(i + 1) % n] - centroid);
-            newell += Vec3::new(
-                (a.y - b.y) * (a.z + b.z),
-                (a.z - b.z) * (a.x + b.x),
-                (a.x - b.x) * (a.y + b.y),
-            );
+            newell += Vec3::new((a.y - b.y) * (a.z + b.z), (a.z - b.z) * (a.x + b.x), (a.x - b.x) * (a.y + b.y));
         }
         // |newell| is twice the area.
         // Written so that a NaN (overflowing coordinates) also counts as degenerate.
@@ -133,9 +129,7 @@ impl Polygon {
             edges.push(EdgePlane { inward, offset });
         }
 
-        let first_edge = (0..n)
-            .map(|i| vertices[(i + 1) % n] - vertices[i])
-            .find(|e| e.length() > tolerance);
+        let first_edge = (0..n).map(|i| vertices[(i + 1) % n] - vertices[i]).find(|e| e.length() > tolerance);
         // Cannot fail: a polygon with area has an edge longer than the tolerance.
         let e1 = first_edge.unwrap_or(Vec3::X).normalize_or(Vec3::X);
         let e2 = normal.cross(e1);
@@ -146,10 +140,8 @@ impl Polygon {
             hi = hi.max(c);
         }
         let size = hi - lo;
-        let uv_scale = Vec2::new(
-            if size.x > 0.0 { 1.0 / size.x } else { 0.0 },
-            if size.y > 0.0 { 1.0 / size.y } else { 0.0 },
-        );
+        let uv_scale =
+            Vec2::new(if size.x > 0.0 { 1.0 / size.x } else { 0.0 }, if size.y > 0.0 { 1.0 / size.y } else { 0.0 });
         // Keep uv relative to v0 so `surface` does not need the vertex list.
         let uv_min = lo + Vec2::new(vertices[0].dot(e1), vertices[0].dot(e2));
 
@@ -189,12 +181,7 @@ impl Polygon {
         if self.edges.iter().any(|e| e.inward.dot(p) - e.offset < -self.tolerance) {
             return None;
         }
-        Some(Hit {
-            prim: 0,
-            t,
-            uv: Vec2::ZERO,
-            part: part::SIDE,
-        })
+        Some(Hit { prim: 0, t, uv: Vec2::ZERO, part: part::SIDE })
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
@@ -203,11 +190,7 @@ impl Polygon {
         let point = p - (self.normal.dot(p) - self.plane_d) * self.normal;
         let c = Vec2::new(point.dot(self.e1), point.dot(self.e2));
         let uv = ((c - self.uv_min) * self.uv_scale).clamp(Vec2::ZERO, Vec2::ONE);
-        Surface {
-            point,
-            normal: self.normal,
-            uv,
-        }
+        Surface { point, normal: self.normal, uv }
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -246,10 +229,7 @@ mod tests {
     #[test]
     fn too_few_vertices_is_rejected() {
         assert_eq!(Polygon::new(vec![]), Err(PolygonError::TooFewVertices));
-        assert_eq!(
-            Polygon::new(vec![Vec3::ZERO, Vec3::X]),
-            Err(PolygonError::TooFewVertices)
-        );
+        assert_eq!(Polygon::new(vec![Vec3::ZERO, Vec3::X]), Err(PolygonError::TooFewVertices));
     }
 
     #[test]
@@ -262,12 +242,7 @@ mod tests {
 
     #[test]
     fn lifted_vertex_is_not_planar() {
-        let r = Polygon::new(vec![
-            v(0.0, 0.0, 0.0),
-            v(1.0, 0.0, 0.0),
-            v(1.0, 1.0, 0.0),
-            v(0.0, 1.0, 0.1),
-        ]);
+        let r = Polygon::new(vec![v(0.0, 0.0, 0.0), v(1.0, 0.0, 0.0), v(1.0, 1.0, 0.0), v(0.0, 1.0, 0.1)]);
         // Newell's plane is a best fit, so the bent square is off it at some vertex.
         assert!(matches!(r, Err(PolygonError::NotPlanar { .. })), "{r:?}");
         let r = Polygon::new(vec![
@@ -331,10 +306,7 @@ mod tests {
         ])
         .unwrap();
         assert_vec_close(p.normal(), Vec3::Z, 1e-6);
-        assert!(
-            p.intersect(&ray([1.9, 0.1, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-                .is_some()
-        );
+        assert!(p.intersect(&ray([1.9, 0.1, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).is_some());
     }
 
     #[test]
@@ -366,15 +338,9 @@ mod tests {
         let mid = 0.5 * (p.vertices()[0] + p.vertices()[1]);
         let out = mid.truncate() * 1.05;
         assert!(out.length() < 1.0);
-        assert_eq!(
-            p.intersect(&ray([out.x, out.y, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(p.intersect(&ray([out.x, out.y, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
         let inside = mid.truncate() * 0.95;
-        assert!(
-            p.intersect(&ray([inside.x, inside.y, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-                .is_some()
-        );
+        assert!(p.intersect(&ray([inside.x, inside.y, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).is_some());
     }
 
     #[test]
@@ -399,19 +365,13 @@ mod tests {
         let out = mid + 1e-3 * mid.truncate().normalize().extend(0.0);
         assert_eq!(p.intersect(&at(out), 0.0, f32::INFINITY), None);
         // In the plane: parallel, miss.
-        assert_eq!(
-            p.intersect(&ray([-3.0, 0.0, -5.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(p.intersect(&ray([-3.0, 0.0, -5.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn polygon_behind_origin_is_missed() {
         let p = pentagon();
-        assert_eq!(
-            p.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(p.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
@@ -457,13 +417,7 @@ mod tests {
     #[test]
     fn uv_spans_the_unit_square() {
         // Axis-aligned rectangle starting along +x: uv is the normalised position.
-        let p = Polygon::new(vec![
-            v(0.0, 0.0, 0.0),
-            v(4.0, 0.0, 0.0),
-            v(4.0, 2.0, 0.0),
-            v(0.0, 2.0, 0.0),
-        ])
-        .unwrap();
+        let p = Polygon::new(vec![v(0.0, 0.0, 0.0), v(4.0, 0.0, 0.0), v(4.0, 2.0, 0.0), v(0.0, 2.0, 0.0)]).unwrap();
         let r = ray([1.0, 1.5, 1.0], [0.0, 0.0, -1.0]);
         let uv = p.surface(&r, &p.intersect(&r, 0.0, f32::INFINITY).unwrap()).uv;
         assert_close(uv.x, 0.25, 1e-5);
@@ -507,10 +461,7 @@ mod tests {
                     let n = eu.cross(ev);
                     let a = rel.cross(ev).dot(n) / n.length_squared();
                     let b = eu.cross(rel).dot(n) / n.length_squared();
-                    assert!(
-                        a.min(b) > -1e-4 && a.max(b) < 1.0 + 1e-4,
-                        "polygon hit far outside quad"
-                    );
+                    assert!(a.min(b) > -1e-4 && a.max(b) < 1.0 + 1e-4, "polygon hit far outside quad");
                 }
             }
         }

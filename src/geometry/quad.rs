@@ -25,14 +25,7 @@ impl Quad {
         let nn = n.length_squared();
         let normal = n.normalize_or_zero();
         let w = if nn > 0.0 { n / nn } else { Vec3::ZERO };
-        Quad {
-            corner,
-            edge_u,
-            edge_v,
-            normal,
-            plane_d: normal.dot(corner),
-            w,
-        }
+        Quad { corner, edge_u, edge_v, normal, plane_d: normal.dot(corner), w }
     }
 
     pub fn normal(&self) -> Vec3 {
@@ -56,22 +49,13 @@ impl Quad {
         if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
             return None;
         }
-        Some(Hit {
-            prim: 0,
-            t,
-            uv: Vec2::new(a, b),
-            part: part::SIDE,
-        })
+        Some(Hit { prim: 0, t, uv: Vec2::new(a, b), part: part::SIDE })
     }
 
     pub fn surface(&self, _ray: &Ray, hit: &Hit) -> Surface {
         // Rebuilt from (a, b) rather than `origin + t dir`: exactly on the plane.
         let point = self.corner + hit.uv.x * self.edge_u + hit.uv.y * self.edge_v;
-        Surface {
-            point,
-            normal: self.normal,
-            uv: hit.uv,
-        }
+        Surface { point, normal: self.normal, uv: hit.uv }
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -88,11 +72,7 @@ mod tests {
 
     /// 2×2 square in the plane z = -5, facing +z.
     fn square() -> Quad {
-        Quad::new(
-            Vec3::new(-1.0, -1.0, -5.0),
-            Vec3::new(2.0, 0.0, 0.0),
-            Vec3::new(0.0, 2.0, 0.0),
-        )
+        Quad::new(Vec3::new(-1.0, -1.0, -5.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0))
     }
 
     fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
@@ -124,11 +104,7 @@ mod tests {
     #[test]
     fn slanted_parallelogram_coordinates() {
         // Sheared edges: (a, b) must solve p = corner + a eu + b ev, not be projections.
-        let q = Quad::new(
-            Vec3::new(0.0, 0.0, -2.0),
-            Vec3::new(2.0, 0.0, 0.0),
-            Vec3::new(1.0, 1.0, 0.0),
-        );
+        let q = Quad::new(Vec3::new(0.0, 0.0, -2.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0));
         let target = q.corner + 0.25 * q.edge_u + 0.5 * q.edge_v;
         let r = Ray::new(Vec3::new(0.3, 0.1, 3.0), target - Vec3::new(0.3, 0.1, 3.0));
         let h = q.intersect(&r, 0.0, f32::INFINITY).unwrap();
@@ -143,42 +119,25 @@ mod tests {
     #[test]
     fn grazing_edge_is_inclusive() {
         let q = square();
-        let on_edge = q
-            .intersect(&ray([1.0, 0.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-            .unwrap();
+        let on_edge = q.intersect(&ray([1.0, 0.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).unwrap();
         assert_close(on_edge.uv.x, 1.0, 1e-6);
         assert_close(on_edge.t, 5.0, 1e-5);
-        assert!(
-            q.intersect(&ray([1.0 - 1e-3, 0.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-                .is_some()
-        );
-        assert_eq!(
-            q.intersect(&ray([1.0 + 1e-3, 0.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert!(q.intersect(&ray([1.0 - 1e-3, 0.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).is_some());
+        assert_eq!(q.intersect(&ray([1.0 + 1e-3, 0.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn ray_skimming_in_plane_misses() {
         let q = square();
-        assert_eq!(
-            q.intersect(&ray([-3.0, 0.0, -5.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(q.intersect(&ray([-3.0, 0.0, -5.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
         // Almost parallel, just above: crosses the plane far away, outside the quad.
-        assert_eq!(
-            q.intersect(&ray([-3.0, 0.0, -4.999], [1.0, 0.0, -1e-6]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(q.intersect(&ray([-3.0, 0.0, -4.999], [1.0, 0.0, -1e-6]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn quad_behind_origin_is_missed() {
         let q = square();
-        assert_eq!(
-            q.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(q.intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
@@ -192,11 +151,7 @@ mod tests {
 
     #[test]
     fn offset_rays_do_not_hit_again() {
-        let q = Quad::new(
-            Vec3::new(10.0, -3.0, -30.0),
-            Vec3::new(4.0, 1.0, 1.0),
-            Vec3::new(-1.0, 3.0, 2.0),
-        );
+        let q = Quad::new(Vec3::new(10.0, -3.0, -30.0), Vec3::new(4.0, 1.0, 1.0), Vec3::new(-1.0, 3.0, 2.0));
         let mut rng = Rng::new(11);
         let mut hits = 0;
         for _ in 0..500 {
@@ -222,19 +177,12 @@ mod tests {
     #[test]
     fn degenerate_quad_is_never_hit() {
         let q = Quad::new(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X);
-        assert_eq!(
-            q.intersect(&ray([0.5, 0.0, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(q.intersect(&ray([0.5, 0.0, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn bounds_cover_all_corners() {
-        let q = Quad::new(
-            Vec3::new(1.0, 0.0, 0.0),
-            Vec3::new(1.0, 1.0, 0.0),
-            Vec3::new(-1.0, 0.0, 2.0),
-        );
+        let q = Quad::new(Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 0.0, 2.0));
         let b = q.bounds();
         assert_eq!(b.min, Vec3::new(0.0, 0.0, 0.0));
         assert_eq!(b.max, Vec3::new(2.0, 1.0, 2.0));
@@ -242,11 +190,7 @@ mod tests {
 
     #[test]
     fn random_hits_lie_on_the_quad() {
-        let q = Quad::new(
-            Vec3::new(-1.0, 0.5, 0.0),
-            Vec3::new(2.0, 0.5, -0.5),
-            Vec3::new(0.3, 0.0, 1.5),
-        );
+        let q = Quad::new(Vec3::new(-1.0, 0.5, 0.0), Vec3::new(2.0, 0.5, -0.5), Vec3::new(0.3, 0.0, 1.5));
         let b = q.bounds();
         let mut rng = Rng::new(99);
         for _ in 0..3000 {

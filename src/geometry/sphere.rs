@@ -38,12 +38,7 @@ impl Sphere {
         } else {
             return None;
         };
-        Some(Hit {
-            prim: 0,
-            t,
-            uv: Vec2::ZERO,
-            part: part::SIDE,
-        })
+        Some(Hit { prim: 0, t, uv: Vec2::ZERO, part: part::SIDE })
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
@@ -53,19 +48,12 @@ impl Sphere {
         let point = self.center + self.radius * normal;
         let u = 0.5 + normal.x.atan2(normal.z) * (0.5 * FRAC_1_PI);
         let v = 0.5 - normal.y.clamp(-1.0, 1.0).asin() / PI;
-        Surface {
-            point,
-            normal,
-            uv: Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)),
-        }
+        Surface { point, normal, uv: Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) }
     }
 
     pub fn bounds(&self) -> Aabb {
         let r = Vec3::splat(self.radius.abs());
-        Aabb {
-            min: self.center - r,
-            max: self.center + r,
-        }
+        Aabb { min: self.center - r, max: self.center + r }
     }
 }
 
@@ -215,11 +203,7 @@ mod tests {
         for _ in 0..4000 {
             let r = rng.ray(b.min, b.max, 3.0);
             let t_min = if rng.unit() < 0.5 { 0.0 } else { rng.range(0.0, 2.0) };
-            let t_max = if rng.unit() < 0.5 {
-                f32::INFINITY
-            } else {
-                t_min + rng.range(0.0, 8.0)
-            };
+            let t_max = if rng.unit() < 0.5 { f32::INFINITY } else { t_min + rng.range(0.0, 8.0) };
             let hit = s.intersect(&r, t_min, t_max);
             let end = match hit {
                 Some(h) => {

@@ -84,13 +84,7 @@ impl Transformed {
             to_world.transform_point3(c)
         });
         let bounds = Aabb::from_points(corners);
-        Transformed {
-            shape,
-            to_object,
-            to_world,
-            normal_to_world: to_world.matrix3.inverse().transpose(),
-            bounds,
-        }
+        Transformed { shape, to_object, to_world, normal_to_world: to_world.matrix3.inverse().transpose(), bounds }
     }
 
     /// The ray in object space (unit direction) and the object-space length of one world unit along it.
@@ -98,20 +92,12 @@ impl Transformed {
     fn object_ray(&self, ray: &Ray) -> (Ray, f32) {
         let d = self.to_object.transform_vector3(ray.dir);
         let len = d.length();
-        (
-            Ray {
-                origin: self.to_object.transform_point3(ray.origin),
-                dir: d / len,
-            },
-            len,
-        )
+        (Ray { origin: self.to_object.transform_point3(ray.origin), dir: d / len }, len)
     }
 
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let (r, len) = self.object_ray(ray);
-        self.shape
-            .intersect(&r, t_min * len, t_max * len)
-            .map(|h| Hit { t: h.t / len, ..h })
+        self.shape.intersect(&r, t_min * len, t_max * len).map(|h| Hit { t: h.t / len, ..h })
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
@@ -119,9 +105,7 @@ impl Transformed {
         let s = self.shape.surface(&r, &Hit { t: hit.t * len, ..*hit });
         Surface {
             point: self.to_world.transform_point3(s.point),
-            normal: (self.normal_to_world * Vec3A::from(s.normal))
-                .normalize_or_zero()
-                .into(),
+            normal: (self.normal_to_world * Vec3A::from(s.normal)).normalize_or_zero().into(),
             uv: s.uv,
         }
     }
@@ -150,11 +134,8 @@ mod tests {
     #[test]
     fn stretched_sphere_is_an_ellipsoid_with_correct_normals() {
         // x stretched by 3: an ellipsoid with semi-axes (3, 1, 1).
-        let e = apply(
-            Sphere::new(Vec3::ZERO, 1.0).into(),
-            &affine(Vec3::ZERO, Vec3::ZERO, Vec3::new(3.0, 1.0, 1.0)),
-        )
-        .unwrap();
+        let e = apply(Sphere::new(Vec3::ZERO, 1.0).into(), &affine(Vec3::ZERO, Vec3::ZERO, Vec3::new(3.0, 1.0, 1.0)))
+            .unwrap();
         assert!(matches!(e, Shape::Transformed(_)));
         let along_x = Ray::new(Vec3::new(10.0, 0.0, 0.0), Vec3::NEG_X);
         let h = e.intersect(&along_x, 0.0, f32::INFINITY).unwrap();
@@ -166,11 +147,7 @@ mod tests {
         let ray = Ray::new(p + Vec3::new(1.0, 3.0, 0.0), -Vec3::new(1.0, 3.0, 0.0));
         let s = e.surface(&ray, &e.intersect(&ray, 0.0, f32::INFINITY).unwrap());
         assert!((s.point - p).length() < 1e-4, "{}", s.point);
-        assert!(
-            (s.normal - Vec3::new(1.0, 3.0, 0.0).normalize()).length() < 1e-4,
-            "{}",
-            s.normal
-        );
+        assert!((s.normal - Vec3::new(1.0, 3.0, 0.0).normalize()).length() < 1e-4, "{}", s.normal);
         let b = e.bounds();
         assert!(b.min.x <= -3.0 && b.max.x >= 3.0 && b.max.y >= 1.0);
         assert!(e.intersect(&along_x, 0.0, 6.9).is_none(), "t_max is in world units");

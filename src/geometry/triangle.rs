@@ -42,12 +42,7 @@ impl Triangle {
         if !(t > t_min && t < t_max) {
             return None;
         }
-        Some(Hit {
-            prim: 0,
-            t,
-            uv: Vec2::new(b1, b2),
-            part: part::SIDE,
-        })
+        Some(Hit { prim: 0, t, uv: Vec2::new(b1, b2), part: part::SIDE })
     }
 
     pub fn surface(&self, _ray: &Ray, hit: &Hit) -> Surface {
@@ -55,11 +50,7 @@ impl Triangle {
         // From the barycentrics rather than `origin + t dir`: exactly in the triangle.
         let point = (1.0 - b1 - b2) * self.v0 + b1 * self.v1 + b2 * self.v2;
         let normal = (self.v1 - self.v0).cross(self.v2 - self.v0).normalize_or_zero();
-        Surface {
-            point,
-            normal,
-            uv: hit.uv,
-        }
+        Surface { point, normal, uv: hit.uv }
     }
 
     pub fn bounds(&self) -> Aabb {
@@ -75,11 +66,7 @@ mod tests {
 
     /// In the plane z = -5, counter-clockwise seen from +z.
     fn tri() -> Triangle {
-        Triangle::new(
-            Vec3::new(-1.0, -1.0, -5.0),
-            Vec3::new(1.0, -1.0, -5.0),
-            Vec3::new(0.0, 1.0, -5.0),
-        )
+        Triangle::new(Vec3::new(-1.0, -1.0, -5.0), Vec3::new(1.0, -1.0, -5.0), Vec3::new(0.0, 1.0, -5.0))
     }
 
     fn ray(o: [f32; 3], d: [f32; 3]) -> Ray {
@@ -111,11 +98,7 @@ mod tests {
 
     #[test]
     fn slanted_hit() {
-        let tr = Triangle::new(
-            Vec3::new(0.0, 0.0, -2.0),
-            Vec3::new(2.0, 0.0, -4.0),
-            Vec3::new(0.0, 2.0, -2.0),
-        );
+        let tr = Triangle::new(Vec3::new(0.0, 0.0, -2.0), Vec3::new(2.0, 0.0, -4.0), Vec3::new(0.0, 2.0, -2.0));
         let target = 0.2 * tr.v0 + 0.5 * tr.v1 + 0.3 * tr.v2;
         let origin = Vec3::new(1.0, 1.0, 1.0);
         let r = Ray::new(origin, target - origin);
@@ -133,45 +116,24 @@ mod tests {
         // On the bottom edge y = -1, and on vertex v2.
         assert!(tr.intersect(&ray([0.0, -1.0, 0.0], down), 0.0, f32::INFINITY).is_some());
         assert!(tr.intersect(&ray([0.0, 1.0, 0.0], down), 0.0, f32::INFINITY).is_some());
-        assert!(
-            tr.intersect(&ray([0.0, -1.0 + 1e-3, 0.0], down), 0.0, f32::INFINITY)
-                .is_some()
-        );
-        assert_eq!(
-            tr.intersect(&ray([0.0, -1.0 - 1e-3, 0.0], down), 0.0, f32::INFINITY),
-            None
-        );
+        assert!(tr.intersect(&ray([0.0, -1.0 + 1e-3, 0.0], down), 0.0, f32::INFINITY).is_some());
+        assert_eq!(tr.intersect(&ray([0.0, -1.0 - 1e-3, 0.0], down), 0.0, f32::INFINITY), None);
         // In the plane: miss, not NaN.
-        assert_eq!(
-            tr.intersect(&ray([-3.0, 0.0, -5.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(tr.intersect(&ray([-3.0, 0.0, -5.0], [1.0, 0.0, 0.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn miss_beside_the_slanted_edge() {
         // Inside the bounding box but past the edge v1-v2 (the line 2x + y = 1).
         let tr = tri();
-        assert_eq!(
-            tr.intersect(&ray([0.8, 0.8, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
-        assert_eq!(
-            tr.intersect(&ray([-0.8, 0.8, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
-        assert!(
-            tr.intersect(&ray([0.4, 0.1, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-                .is_some()
-        );
+        assert_eq!(tr.intersect(&ray([0.8, 0.8, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
+        assert_eq!(tr.intersect(&ray([-0.8, 0.8, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
+        assert!(tr.intersect(&ray([0.4, 0.1, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).is_some());
     }
 
     #[test]
     fn triangle_behind_origin_is_missed() {
-        assert_eq!(
-            tri().intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(tri().intersect(&ray([0.0, 0.0, 0.0], [0.0, 0.0, 1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
@@ -186,38 +148,22 @@ mod tests {
     #[test]
     fn degenerate_triangle_is_never_hit() {
         let tr = Triangle::new(Vec3::ZERO, Vec3::X, 2.0 * Vec3::X);
-        assert_eq!(
-            tr.intersect(&ray([0.5, 0.0, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(tr.intersect(&ray([0.5, 0.0, 1.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
         let point = Triangle::new(Vec3::ONE, Vec3::ONE, Vec3::ONE);
-        assert_eq!(
-            point.intersect(&ray([1.0, 1.0, 2.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY),
-            None
-        );
+        assert_eq!(point.intersect(&ray([1.0, 1.0, 2.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY), None);
     }
 
     #[test]
     fn tiny_triangle_is_still_hit() {
         let s = 1e-4;
-        let tr = Triangle::new(
-            Vec3::new(0.0, 0.0, -1.0),
-            Vec3::new(s, 0.0, -1.0),
-            Vec3::new(0.0, s, -1.0),
-        );
-        let h = tr
-            .intersect(&ray([s / 4.0, s / 4.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY)
-            .unwrap();
+        let tr = Triangle::new(Vec3::new(0.0, 0.0, -1.0), Vec3::new(s, 0.0, -1.0), Vec3::new(0.0, s, -1.0));
+        let h = tr.intersect(&ray([s / 4.0, s / 4.0, 0.0], [0.0, 0.0, -1.0]), 0.0, f32::INFINITY).unwrap();
         assert_close(h.t, 1.0, 1e-6);
     }
 
     #[test]
     fn offset_rays_do_not_hit_again() {
-        let tr = Triangle::new(
-            Vec3::new(10.0, -3.0, -30.0),
-            Vec3::new(14.0, -2.0, -29.0),
-            Vec3::new(9.0, 0.0, -28.0),
-        );
+        let tr = Triangle::new(Vec3::new(10.0, -3.0, -30.0), Vec3::new(14.0, -2.0, -29.0), Vec3::new(9.0, 0.0, -28.0));
         let mut rng = Rng::new(41);
         let mut hits = 0;
         for _ in 0..500 {
@@ -249,11 +195,7 @@ mod tests {
 
     #[test]
     fn random_hits_lie_in_the_triangle() {
-        let tr = Triangle::new(
-            Vec3::new(-1.0, 0.2, 0.3),
-            Vec3::new(1.5, -0.4, 0.1),
-            Vec3::new(0.2, 1.3, -0.8),
-        );
+        let tr = Triangle::new(Vec3::new(-1.0, 0.2, 0.3), Vec3::new(1.5, -0.4, 0.1), Vec3::new(0.2, 1.3, -0.8));
         let b = tr.bounds();
         let n = (tr.v1 - tr.v0).cross(tr.v2 - tr.v0).normalize();
         let mut rng = Rng::new(77);

@@ -25,12 +25,7 @@ pub struct Integrator<'w, 's> {
 impl<'w, 's> Integrator<'w, 's> {
     pub fn new(world: &'w World<'s>, max_depth: u32) -> Self {
         let s = &world.scene().settings;
-        Integrator {
-            world,
-            max_depth,
-            background: s.background,
-            ambient: s.ambient,
-        }
+        Integrator { world, max_depth, background: s.background, ambient: s.ambient }
     }
 
     /// The colour seen along a camera ray.
@@ -55,11 +50,7 @@ impl<'w, 's> Integrator<'w, 's> {
         let surface = object.shape.surface(ray, &hit);
         let p = surface.point;
         // The normal on the ray's side of the surface.
-        let n = if ray.dir.dot(surface.normal) < 0.0 {
-            surface.normal
-        } else {
-            -surface.normal
-        };
+        let n = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
         let offset = surface_offset(p);
         let lit_from = p + offset * n;
 
@@ -75,13 +66,7 @@ impl<'w, 's> Integrator<'w, 's> {
                 continue; // the light is behind the surface
             }
             stats.shadow += 1;
-            let visible = self.world.transmittance(
-                &Ray {
-                    origin: lit_from,
-                    dir: l,
-                },
-                distance,
-            );
+            let visible = self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance);
             if visible == 0.0 {
                 continue;
             }
@@ -98,10 +83,7 @@ impl<'w, 's> Integrator<'w, 's> {
         if depth < self.max_depth {
             if material.reflectivity > 0.0 {
                 stats.reflection += 1;
-                let r = Ray {
-                    origin: lit_from,
-                    dir: reflect(ray.dir, n),
-                };
+                let r = Ray { origin: lit_from, dir: reflect(ray.dir, n) };
                 color += material.reflectivity * self.trace(&r, depth + 1, stats);
             }
             if material.transparency > 0.0 {
@@ -136,30 +118,14 @@ pub fn transmitted_ray(ray: &Ray, surface: &Surface, ior: f32) -> (Ray, Transmis
     let n: Vec3 = if entering { surface.normal } else { -surface.normal };
     let offset = surface_offset(surface.point) * n;
     if ior == OUTSIDE_IOR {
-        return (
-            Ray {
-                origin: surface.point - offset,
-                dir: ray.dir,
-            },
-            Transmission::Refracted,
-        );
+        return (Ray { origin: surface.point - offset, dir: ray.dir }, Transmission::Refracted);
     }
     let eta = if entering { OUTSIDE_IOR / ior } else { ior / OUTSIDE_IOR };
     match refract(ray.dir, n, eta) {
-        Some(dir) => (
-            Ray {
-                origin: surface.point - offset,
-                dir,
-            },
-            Transmission::Refracted,
-        ),
-        None => (
-            Ray {
-                origin: surface.point + offset,
-                dir: reflect(ray.dir, n),
-            },
-            Transmission::TotalInternalReflection,
-        ),
+        Some(dir) => (Ray { origin: surface.point - offset, dir }, Transmission::Refracted),
+        None => {
+            (Ray { origin: surface.point + offset, dir: reflect(ray.dir, n) }, Transmission::TotalInternalReflection)
+        }
     }
 }
 
@@ -180,16 +146,10 @@ mod tests {
 
     /// A glass slab between z = 0 and z = -1, outward normals +z and -z.
     fn slab() -> (Shape, Shape) {
-        let top = Shape::Quad(Quad::new(
-            Vec3::new(-10.0, -10.0, 0.0),
-            Vec3::new(20.0, 0.0, 0.0),
-            Vec3::new(0.0, 20.0, 0.0),
-        ));
-        let bottom = Shape::Quad(Quad::new(
-            Vec3::new(-10.0, -10.0, -1.0),
-            Vec3::new(0.0, 20.0, 0.0),
-            Vec3::new(20.0, 0.0, 0.0),
-        ));
+        let top =
+            Shape::Quad(Quad::new(Vec3::new(-10.0, -10.0, 0.0), Vec3::new(20.0, 0.0, 0.0), Vec3::new(0.0, 20.0, 0.0)));
+        let bottom =
+            Shape::Quad(Quad::new(Vec3::new(-10.0, -10.0, -1.0), Vec3::new(0.0, 20.0, 0.0), Vec3::new(20.0, 0.0, 0.0)));
         (top, bottom)
     }
 
@@ -203,12 +163,7 @@ mod tests {
         assert!(inside.dir.x < incoming.dir.x * 0.9, "{:?}", inside.dir);
         let (out, kind) = transmitted_ray(&inside, &shape_surface(&bottom, &inside), 1.5);
         assert_eq!(kind, Transmission::Refracted);
-        assert!(
-            (out.dir - incoming.dir).length() < 1e-5,
-            "{:?} vs {:?}",
-            out.dir,
-            incoming.dir
-        );
+        assert!((out.dir - incoming.dir).length() < 1e-5, "{:?} vs {:?}", out.dir, incoming.dir);
         // ...and displaced sideways, as a real slab does.
         assert!(out.origin.x > 0.6 * 5.0 / 1.0 * 1.0 + 0.1);
     }
@@ -259,10 +214,7 @@ mod tests {
         // Entering glass from air never reflects totally.
         let a = 89f32.to_radians();
         let grazing = Ray::new(Vec3::new(0.0, 0.0, 0.05), Vec3::new(a.sin(), 0.0, -a.cos()));
-        assert_eq!(
-            transmitted_ray(&grazing, &shape_surface(&top, &grazing), 1.5).1,
-            Transmission::Refracted
-        );
+        assert_eq!(transmitted_ray(&grazing, &shape_surface(&top, &grazing), 1.5).1, Transmission::Refracted);
     }
 
     /// A floor lit from straight above, with `spheres` (transmission 0.7 each) in between.
@@ -271,14 +223,7 @@ mod tests {
         scene.settings.ambient = 0.0;
         let floor = scene.add_material(Material::color(Color::ONE).matte());
         let glass = scene.add_material(Material::color(Color::ONE).transparent(0.7, 1.0));
-        scene.add(
-            Quad::new(
-                Vec3::new(-5.0, 0.0, 5.0),
-                Vec3::new(10.0, 0.0, 0.0),
-                Vec3::new(0.0, 0.0, -10.0),
-            ),
-            floor,
-        );
+        scene.add(Quad::new(Vec3::new(-5.0, 0.0, 5.0), Vec3::new(10.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -10.0)), floor);
         for &c in spheres {
             scene.add(Sphere::new(c, 1.0), glass);
         }
@@ -301,10 +246,7 @@ mod tests {
         let (one, t_one) = brightness(&[Vec3::new(0.0, 4.0, 0.0)]);
         let (two, t_two) = brightness(&[Vec3::new(0.0, 4.0, 0.0), Vec3::new(0.0, 4.8, 0.0)]);
         assert_eq!((t_open, t_one), (1.0, 0.7));
-        assert!(
-            (t_two - 0.49).abs() < 1e-6,
-            "two overlapping 70 % spheres pass {t_two}, not 0.49"
-        );
+        assert!((t_two - 0.49).abs() < 1e-6, "two overlapping 70 % spheres pass {t_two}, not 0.49");
         assert!(open > 0.9, "{open}");
         assert!((one / open - 0.7).abs() < 1e-5, "{one} / {open}");
         assert!((two / open - 0.49).abs() < 1e-5, "{two} / {open}");

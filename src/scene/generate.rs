@@ -38,11 +38,7 @@ pub fn cube_sphere(n: u32) -> Mesh {
             let o = &FACES[v / per];
             let (j, i) = ((v % per) / (n as usize + 1), (v % per) % (n as usize + 1));
             let (a, b) = (i as f64 / n as f64, j as f64 / n as f64);
-            let (x, y, z) = (
-                o[0] + a * o[3] + b * o[6],
-                o[1] + a * o[4] + b * o[7],
-                o[2] + a * o[5] + b * o[8],
-            );
+            let (x, y, z) = (o[0] + a * o[3] + b * o[6], o[1] + a * o[4] + b * o[7], o[2] + a * o[5] + b * o[8]);
             let l = (x * x + y * y + z * z).sqrt();
             let (x, y, z) = (x / l, y / l, z / l);
             let r = displacement(x, y, z);
@@ -89,9 +85,6 @@ mod tests {
             })
             .count();
         // The generator's winding is the benchmark's; record which way it goes.
-        assert!(
-            outward == 0 || outward == m.triangle_count(),
-            "mixed winding: {outward}"
-        );
+        assert!(outward == 0 || outward == m.triangle_count(), "mixed winding: {outward}");
     }
 }

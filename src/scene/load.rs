@@ -28,10 +28,8 @@ const MAX_SAMPLES: i64 = 65536;
 /// Reads and checks a scene file. Relative texture paths are relative to the file.
 pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
     let name = path.display().to_string();
-    let src = std::fs::read_to_string(path).map_err(|e| SceneError::File {
-        file: name.clone(),
-        message: format!("cannot read the scene: {e}"),
-    })?;
+    let src = std::fs::read_to_string(path)
+        .map_err(|e| SceneError::File { file: name.clone(), message: format!("cannot read the scene: {e}") })?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_str(&src, &name, base)
 }
@@ -39,12 +37,7 @@ pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
 /// Parses a scene from text. `name` is used in messages; relative paths in the scene
 /// are resolved against `base_dir`.
 pub fn load_str(src: &str, name: &str, base_dir: &Path) -> Result<Scene, SceneError> {
-    let ctx = Ctx {
-        name,
-        src,
-        base_dir,
-        images: Default::default(),
-    };
+    let ctx = Ctx { name, src, base_dir, images: Default::default() };
     let desc: FileDesc = toml::from_str(src).map_err(|e| ctx.toml_error(&e))?;
     ctx.build(desc)
 }
@@ -266,13 +259,7 @@ impl Ctx<'_> {
 
     fn error_at(&self, offset: usize, field: &str, message: impl Into<String>) -> SceneError {
         let (line, column) = self.line_col(offset);
-        SceneError::At {
-            file: self.name.to_owned(),
-            line,
-            column,
-            field: field.to_owned(),
-            message: message.into(),
-        }
+        SceneError::At { file: self.name.to_owned(), line, column, field: field.to_owned(), message: message.into() }
     }
 
     fn err<T>(&self, v: &S<T>, field: &str, message: impl Into<String>) -> SceneError {
@@ -308,38 +295,22 @@ impl Ctx<'_> {
 
     fn finite(&self, v: &S<f32>, field: &str) -> R<f32> {
         let x = *v.get_ref();
-        if x.is_finite() {
-            Ok(x)
-        } else {
-            Err(self.err(v, field, format!("must be a finite number (got {x})")))
-        }
+        if x.is_finite() { Ok(x) } else { Err(self.err(v, field, format!("must be a finite number (got {x})"))) }
     }
 
     fn positive(&self, v: &S<f32>, field: &str) -> R<f32> {
         let x = self.finite(v, field)?;
-        if x > 0.0 {
-            Ok(x)
-        } else {
-            Err(self.err(v, field, format!("must be > 0 (got {x})")))
-        }
+        if x > 0.0 { Ok(x) } else { Err(self.err(v, field, format!("must be > 0 (got {x})"))) }
     }
 
     fn non_negative(&self, v: &S<f32>, field: &str) -> R<f32> {
         let x = self.finite(v, field)?;
-        if x >= 0.0 {
-            Ok(x)
-        } else {
-            Err(self.err(v, field, format!("must be >= 0 (got {x})")))
-        }
+        if x >= 0.0 { Ok(x) } else { Err(self.err(v, field, format!("must be >= 0 (got {x})"))) }
     }
 
     fn share(&self, v: &S<f32>, field: &str) -> R<f32> {
         let x = self.finite(v, field)?;
-        if (0.0..=1.0).contains(&x) {
-            Ok(x)
-        } else {
-            Err(self.err(v, field, format!("must be in [0, 1] (got {x})")))
-        }
+        if (0.0..=1.0).contains(&x) { Ok(x) } else { Err(self.err(v, field, format!("must be in [0, 1] (got {x})"))) }
     }
 
     fn vec3(&self, v: &S<V3>, field: &str) -> R<Vec3> {
@@ -353,11 +324,7 @@ impl Ctx<'_> {
 
     fn direction(&self, v: &S<V3>, field: &str) -> R<Vec3> {
         let d = self.vec3(v, field)?;
-        if d.length_squared() > 0.0 {
-            Ok(d)
-        } else {
-            Err(self.err(v, field, "must not be the zero vector"))
-        }
+        if d.length_squared() > 0.0 { Ok(d) } else { Err(self.err(v, field, "must not be the zero vector")) }
     }
 
     fn color(&self, v: &S<V3>, field: &str) -> R<Color> {
@@ -388,10 +355,7 @@ impl Ctx<'_> {
             let l = l.get_ref();
             let position = self.vec3(&l.position, "position")?;
             let color = l.color.as_ref().map_or(Ok(Color::ONE), |c| self.color(c, "color"))?;
-            let intensity = l
-                .intensity
-                .as_ref()
-                .map_or(Ok(1.0), |i| self.non_negative(i, "intensity"))?;
+            let intensity = l.intensity.as_ref().map_or(Ok(1.0), |i| self.non_negative(i, "intensity"))?;
             scene.add_light(PointLight::new(position, color * intensity));
         }
         let mut names = HashMap::new();
@@ -404,11 +368,7 @@ impl Ctx<'_> {
                 MaterialRef::Named(n) => names.get(n.as_str()).copied().ok_or_else(|| {
                     let mut known: Vec<_> = names.keys().copied().collect();
                     known.sort_unstable();
-                    self.err(
-                        m,
-                        "material",
-                        format!("no material named {n:?} (defined: {})", known.join(", ")),
-                    )
+                    self.err(m, "material", format!("no material named {n:?} (defined: {})", known.join(", ")))
                 }),
                 MaterialRef::Inline(d) => Ok(scene.add_material(self.material(d)?)),
             }
@@ -437,10 +397,7 @@ impl Ctx<'_> {
         }
         for q in &desc.quad {
             let q = q.get_ref();
-            let (u, v) = (
-                self.direction(&q.edge_u, "edge_u")?,
-                self.direction(&q.edge_v, "edge_v")?,
-            );
+            let (u, v) = (self.direction(&q.edge_u, "edge_u")?, self.direction(&q.edge_v, "edge_v")?);
             if u.cross(v).length_squared() <= 1e-12 * u.length_squared() * v.length_squared() {
                 return Err(self.err(&q.edge_v, "edge_v", "is parallel to edge_u: the quad has no area"));
             }
@@ -491,12 +448,7 @@ impl Ctx<'_> {
             if (b - a).cross(c - a).length_squared() <= 0.0 {
                 return Err(self.err(&t.vertices, "vertices", "the triangle has no area (collinear vertices)"));
             }
-            place(
-                &mut scene,
-                Shape::Triangle(Triangle::new(a, b, c)),
-                &t.material,
-                &t.transform,
-            )?;
+            place(&mut scene, Shape::Triangle(Triangle::new(a, b, c)), &t.material, &t.transform)?;
         }
         for m in &desc.mesh {
             let m = m.get_ref();
@@ -514,10 +466,7 @@ impl Ctx<'_> {
     }
 
     fn transform(&self, t: &TransformDesc) -> R<glam::Affine3A> {
-        let translate = t
-            .translate
-            .as_ref()
-            .map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "translate"))?;
+        let translate = t.translate.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "translate"))?;
         let rotate = t.rotate.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "rotate"))?;
         let scale = match &t.scale {
             None => Vec3::ONE,
@@ -538,8 +487,7 @@ impl Ctx<'_> {
     fn camera(&self, c: &S<CameraDesc>) -> R<Camera> {
         let d = c.get_ref();
         let resolution = |v: &Option<S<i64>>, field| {
-            v.as_ref()
-                .map_or(Ok(800), |v| self.int_in(v, field, 1, MAX_RESOLUTION, " pixels"))
+            v.as_ref().map_or(Ok(800), |v| self.int_in(v, field, 1, MAX_RESOLUTION, " pixels"))
         };
         let camera = Camera::new(
             self.vec3(&d.position, "position")?,
@@ -552,10 +500,10 @@ impl Ctx<'_> {
         match camera.rig() {
             Ok(_) => Ok(camera),
             Err(e @ CameraError::ZeroDirection) => Err(self.err(&d.look_at, "look_at", e.to_string())),
-            Err(e @ CameraError::BadUp) => Err(d.up.as_ref().map_or_else(
-                || self.err(c, "up", e.to_string()),
-                |u| self.err(u, "up", e.to_string()),
-            )),
+            Err(e @ CameraError::BadUp) => Err(d
+                .up
+                .as_ref()
+                .map_or_else(|| self.err(c, "up", e.to_string()), |u| self.err(u, "up", e.to_string()))),
             Err(e @ CameraError::BadFov) => Err(self.err(&d.fov, "fov", e.to_string())),
         }
     }
@@ -606,18 +554,11 @@ impl Ctx<'_> {
             m.ior = self.positive(v, "ior")?;
         }
         if m.reflectivity + m.transparency > 1.0 + 1e-6 {
-            let at = d
-                .transparency
-                .as_ref()
-                .or(d.reflectivity.as_ref())
-                .expect("one is set when the sum exceeds 1");
+            let at = d.transparency.as_ref().or(d.reflectivity.as_ref()).expect("one is set when the sum exceeds 1");
             return Err(self.err(
                 at,
                 "transparency",
-                format!(
-                    "reflectivity + transparency must be at most 1 (got {} + {})",
-                    m.reflectivity, m.transparency
-                ),
+                format!("reflectivity + transparency must be at most 1 (got {} + {})", m.reflectivity, m.transparency),
             ));
         }
         Ok(m)
@@ -658,11 +599,7 @@ impl Ctx<'_> {
             }
         }
         let required = |present: bool, field: &str| -> R<()> {
-            if present {
-                Ok(())
-            } else {
-                Err(self.err(&t.kind, field, format!("a {kind} texture needs `{field}`")))
-            }
+            if present { Ok(()) } else { Err(self.err(&t.kind, field, format!("a {kind} texture needs `{field}`"))) }
         };
         let colors = || -> R<[Color; 2]> {
             required(t.colors.is_some(), "colors")?;
@@ -693,11 +630,7 @@ impl Ctx<'_> {
                 required(t.width.is_some(), "width")?;
                 let axis = self.direction(t.axis.as_ref().expect("checked"), "axis")?.normalize();
                 let width = self.positive(t.width.as_ref().expect("checked"), "width")?;
-                Ok(Texture::Stripes {
-                    axis,
-                    width,
-                    colors: colors()?,
-                })
+                Ok(Texture::Stripes { axis, width, colors: colors()? })
             }
             "checker" => {
                 required(t.size.is_some(), "size")?;
@@ -709,19 +642,13 @@ impl Ctx<'_> {
                         _ => return Err(self.err(s, "offset", "must be three finite numbers [x, y, z]")),
                     },
                 };
-                Ok(Texture::Checker {
-                    size,
-                    offset,
-                    colors: colors()?,
-                })
+                Ok(Texture::Checker { size, offset, colors: colors()? })
             }
             "image" => {
                 required(t.path.is_some(), "path")?;
                 let p = t.path.as_ref().expect("checked");
                 let path = self.base_dir.join(p.get_ref());
-                let map = self
-                    .image(&path)
-                    .map_err(|e| self.err(p, "path", format!("{}: {e}", path.display())))?;
+                let map = self.image(&path).map_err(|e| self.err(p, "path", format!("{}: {e}", path.display())))?;
                 Ok(Texture::Image {
                     map,
                     scale: vec2(&t.scale, "scale", Vec2::ONE)?,
@@ -729,10 +656,7 @@ impl Ctx<'_> {
                 })
             }
             _ => {
-                let seed = t
-                    .seed
-                    .as_ref()
-                    .map_or(Ok(1), |s| self.int_in(s, "seed", 0, u32::MAX as i64, ""))?;
+                let seed = t.seed.as_ref().map_or(Ok(1), |s| self.int_in(s, "seed", 0, u32::MAX as i64, ""))?;
                 let [w, h] = match &t.resolution {
                     None => [1024, 512],
                     Some(r) => {

@@ -50,12 +50,7 @@ pub struct Settings {
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings {
-            background: Color::ZERO,
-            max_depth: 10,
-            samples: 1,
-            ambient: 0.2,
-        }
+        Settings { background: Color::ZERO, max_depth: 10, samples: 1, ambient: 0.2 }
     }
 }
 
@@ -71,13 +66,7 @@ pub struct Scene {
 impl Scene {
     /// An empty scene with default settings.
     pub fn new(camera: Camera) -> Self {
-        Scene {
-            camera,
-            settings: Settings::default(),
-            lights: Vec::new(),
-            materials: Vec::new(),
-            objects: Vec::new(),
-        }
+        Scene { camera, settings: Settings::default(), lights: Vec::new(), materials: Vec::new(), objects: Vec::new() }
     }
 
     pub fn add_material(&mut self, material: Material) -> MaterialId {
@@ -87,10 +76,7 @@ impl Scene {
 
     /// Adds a shape (anything that converts into [`Shape`]: `Sphere`, `Quad`, ...).
     pub fn add(&mut self, shape: impl Into<Shape>, material: MaterialId) -> &mut Self {
-        self.objects.push(Object {
-            shape: shape.into(),
-            material,
-        });
+        self.objects.push(Object { shape: shape.into(), material });
         self
     }
 

@@ -98,25 +98,15 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
         let floats = |words: std::str::SplitWhitespace, min: usize, max: usize| -> Result<Vec<f32>, SceneError> {
             let mut v = Vec::with_capacity(max);
             for w in words {
-                let x: f32 = w
-                    .parse()
-                    .map_err(|_| err(number, column_of(w), keyword, format!("{w:?} is not a number")))?;
+                let x: f32 =
+                    w.parse().map_err(|_| err(number, column_of(w), keyword, format!("{w:?} is not a number")))?;
                 if !x.is_finite() {
-                    return Err(err(
-                        number,
-                        column_of(w),
-                        keyword,
-                        format!("{w} is not a finite number"),
-                    ));
+                    return Err(err(number, column_of(w), keyword, format!("{w} is not a finite number")));
                 }
                 v.push(x);
             }
             if v.len() < min || v.len() > max {
-                let want = if min == max {
-                    format!("{min}")
-                } else {
-                    format!("{min} to {max}")
-                };
+                let want = if min == max { format!("{min}") } else { format!("{min} to {max}") };
                 return Err(err(
                     number,
                     column_of(keyword),
@@ -196,12 +186,7 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
             k if SKIPPED.contains(&k) => {}
             other => {
                 let shown: String = other.chars().take(20).collect();
-                return Err(err(
-                    number,
-                    column_of(other),
-                    other,
-                    format!("unknown OBJ statement {shown:?}"),
-                ));
+                return Err(err(number, column_of(other), other, format!("unknown OBJ statement {shown:?}")));
             }
         }
     }
@@ -209,18 +194,12 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
         let pos = corners.iter().map(|c| positions[c.0 as usize]).collect();
         let nor = if corners.iter().any(|c| c.2 >= 0) {
             // Corners without a normal get NaN, which makes Mesh::new compute them all.
-            corners
-                .iter()
-                .map(|c| if c.2 >= 0 { normals[c.2 as usize] } else { Vec3::NAN })
-                .collect()
+            corners.iter().map(|c| if c.2 >= 0 { normals[c.2 as usize] } else { Vec3::NAN }).collect()
         } else {
             vec![]
         };
         let tex = if corners.iter().any(|c| c.1 >= 0) {
-            corners
-                .iter()
-                .map(|c| if c.1 >= 0 { uvs[c.1 as usize] } else { Vec2::ZERO })
-                .collect()
+            corners.iter().map(|c| if c.1 >= 0 { uvs[c.1 as usize] } else { Vec2::ZERO }).collect()
         } else {
             vec![]
         };
@@ -231,14 +210,8 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
         Mesh::new(positions, vec![], vec![], remapped, smooth)
     };
     mesh.map_err(|e| match e {
-        MeshError::Empty => SceneError::File {
-            file: name.to_owned(),
-            message: "the mesh has no faces".into(),
-        },
-        other => SceneError::File {
-            file: name.to_owned(),
-            message: other.to_string(),
-        },
+        MeshError::Empty => SceneError::File { file: name.to_owned(), message: "the mesh has no faces".into() },
+        other => SceneError::File { file: name.to_owned(), message: other.to_string() },
     })
 }
 
@@ -273,9 +246,7 @@ mod tests {
 
     fn at(text: &str) -> (usize, usize, String) {
         match read(text).unwrap_err() {
-            SceneError::At {
-                line, column, field, ..
-            } => (line, column, field),
+            SceneError::At { line, column, field, .. } => (line, column, field),
             e => panic!("expected a located error, got {e}"),
         }
     }
@@ -314,14 +285,7 @@ mod tests {
     #[test]
     fn written_meshes_read_back_the_same() {
         let mesh = crate::scene::generate::cube_sphere(3);
-        let smooth = Mesh::new(
-            mesh.positions().to_vec(),
-            vec![],
-            vec![],
-            mesh.triangles().to_vec(),
-            true,
-        )
-        .unwrap();
+        let smooth = Mesh::new(mesh.positions().to_vec(), vec![], vec![], mesh.triangles().to_vec(), true).unwrap();
         for m in [mesh, smooth] {
             let mut text = Vec::new();
             write_obj(&m, &mut text).unwrap();

@@ -5,21 +5,9 @@ use std::sync::Arc;
 #[derive(Clone, Debug)]
 pub enum Texture {
     Solid(Color),
-    Stripes {
-        axis: Vec3,
-        width: f32,
-        colors: [Color; 2],
-    },
-    Checker {
-        size: f32,
-        offset: Vec3,
-        colors: [Color; 2],
-    },
-    Image {
-        map: Arc<ImageMap>,
-        scale: Vec2,
-        offset: Vec2,
-    },
+    Stripes { axis: Vec3, width: f32, colors: [Color; 2] },
+    Checker { size: f32, offset: Vec3, colors: [Color; 2] },
+    Image { map: Arc<ImageMap>, scale: Vec2, offset: Vec2 },
 }
 impl Texture {
     pub fn color(&self, p: Vec3, _uv: Vec2) -> Color {
@@ -65,9 +53,5 @@ impl ImageMap {
     }
 }
 pub fn planet(width: u32, height: u32, _seed: u64) -> ImageMap {
-    ImageMap {
-        width,
-        height,
-        texels: vec![Color::ONE; (width * height) as usize],
-    }
+    ImageMap { width, height, texels: vec![Color::ONE; (width * height) as usize] }
 }

@@ -23,6 +23,32 @@ struct Cli {
 enum Command {
     /// Render a scene to a PNG file.
     Render(RenderArgs),
+    /// Measure ray rates, build time and memory on built-in scenes and meshes.
+    Bench(BenchArgs),
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Run only this built-in scene (room, spheres-1000, spheres-10000, spheres-100000,
+    /// spheres-1000000, cubesphere-1M); repeatable.
+    #[arg(long)]
+    scene: Vec<String>,
+    /// Also measure this OBJ mesh (flat-shaded, framed like the Embree benchmark); repeatable.
+    #[arg(long)]
+    mesh: Vec<PathBuf>,
+    /// Which structures: bvh, none, or both (none only where it finishes in reasonable
+    /// time: scenes of at most 100 primitives, unless asked for alone).
+    #[arg(long, default_value = "both", value_parser = ["bvh", "none", "both"])]
+    accel: String,
+    /// Timed runs per figure; the median is reported.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    runs: u32,
+    /// Worker threads (default: all cores).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Option<u32>,
+    /// One JSON object per line instead of a table.
+    #[arg(long)]
+    json: bool,
 }
 
 #[derive(clap::Args)]
@@ -78,6 +104,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::Bench(args) => bench(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -93,9 +120,7 @@ fn load_scene(path: Option<&Path>) -> Result<(Scene, String), String> {
     match path {
         Some(p) => {
             let scene = scene::load_file(p).map_err(|e| e.to_string())?;
-            let stem = p
-                .file_stem()
-                .map_or("render".into(), |s| s.to_string_lossy().into_owned());
+            let stem = p.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
             Ok((scene, stem))
         }
         None => {
@@ -118,10 +143,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     let pending = PendingOutput::create(&output).map_err(|e| e.to_string())?;
 
     let mut renderer = Renderer::new(&scene).map_err(|e| e.to_string())?;
-    let (w, h) = (
-        args.width.unwrap_or(scene.camera.width),
-        args.height.unwrap_or(scene.camera.height),
-    );
+    let (w, h) = (args.width.unwrap_or(scene.camera.width), args.height.unwrap_or(scene.camera.height));
     renderer = renderer.size(w, h).accel(args.accel.into());
     if let Some(n) = args.spp {
         renderer = renderer.spp(n);
@@ -157,13 +179,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     if args.stats {
         let s = out.stats;
         let secs = out.elapsed.as_secs_f64();
-        println!(
-            "image       {} x {}, {} spp -> {}",
-            out.image.width(),
-            out.image.height(),
-            out.spp,
-            output.display()
-        );
+        println!("image       {} x {}, {} spp -> {}", out.image.width(), out.image.height(), out.spp, output.display());
         println!(
             "rays        primary {}  shadow {}  reflection {}  refraction {}",
             s.primary, s.shadow, s.reflection, s.refraction
@@ -171,6 +187,78 @@ fn render(args: RenderArgs) -> Result<(), String> {
         println!("total       {} rays", s.total());
         println!("render time {:.3} s", secs);
         println!("speed       {:.2} Mrays/s", s.total() as f64 / secs / 1e6);
+    }
+    Ok(())
+}
+
+fn bench(args: BenchArgs) -> Result<(), String> {
+    use whitted::bench::{BenchCase, run};
+    let threads =
+        args.threads.map_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()), |t| t as usize);
+    // Check every name and file before spending minutes measuring.
+    let names: Vec<String> = if args.scene.is_empty() && args.mesh.is_empty() {
+        BenchCase::BUILTIN.iter().map(|s| s.to_string()).collect()
+    } else {
+        args.scene.clone()
+    };
+    if let Some(bad) = names.iter().find(|n| !BenchCase::BUILTIN.contains(&n.as_str())) {
+        return Err(format!(
+            "--scene {bad}: no such built-in scene (expected one of {})",
+            BenchCase::BUILTIN.join(", ")
+        ));
+    }
+    for m in &args.mesh {
+        if !m.is_file() {
+            return Err(format!("--mesh {}: no such file", m.display()));
+        }
+    }
+    let mut cases: Vec<Box<dyn FnOnce() -> Result<BenchCase, String>>> = Vec::new();
+    for n in names {
+        cases.push(Box::new(move || Ok(BenchCase::builtin(&n).expect("checked above"))));
+    }
+    for m in args.mesh {
+        cases.push(Box::new(move || BenchCase::obj(&m).map_err(|e| e.to_string())));
+    }
+    if !args.json {
+        println!(
+            "{:<22} {:>10} {:>5} {:>10} {:>10} {:>8} {:>9} {:>9} {:>11} {:>9}",
+            "scene", "prims", "accel", "build ms", "accel MB", "B/prim", "primary", "shadow", "incoherent", "frame ms"
+        );
+    }
+    for make in cases {
+        let case = make()?;
+        let kinds: &[AccelKind] = match args.accel.as_str() {
+            "bvh" => &[AccelKind::Bvh],
+            "none" => &[AccelKind::None],
+            _ if case.primitives <= 100 => &[AccelKind::Bvh, AccelKind::None],
+            _ => &[AccelKind::Bvh],
+        };
+        for &kind in kinds {
+            let row = run(&case, kind, args.runs as usize, threads);
+            if args.json {
+                println!("{}", serde_json::to_string(&row).map_err(|e| e.to_string())?);
+            } else {
+                println!(
+                    "{:<22} {:>10} {:>5} {:>10.1} {:>10.2} {:>8.1} {:>9.2} {:>9.2} {:>11.2} {:>9.1}",
+                    row.scene,
+                    row.primitives,
+                    row.accel,
+                    row.build_ms,
+                    row.accel_bytes as f64 / 1048576.0,
+                    row.bytes_per_primitive,
+                    row.primary_mrays,
+                    row.shadow_mrays,
+                    row.incoherent_mrays,
+                    row.frame_ms
+                );
+            }
+        }
+    }
+    if !args.json {
+        println!(
+            "rays in Mrays/s (median of {} runs, {threads} threads); primary and shadow rays from 1024x1024 cameras (the room: 800x800)",
+            args.runs
+        );
     }
     Ok(())
 }
