@@ -132,7 +132,9 @@ fn load_scene(path: Option<&Path>) -> Result<(Scene, String), String> {
 }
 
 fn render(args: RenderArgs) -> Result<(), String> {
+    let load_start = Instant::now();
     let (scene, stem) = load_scene(args.scene.as_deref())?;
+    let load_time = load_start.elapsed();
     if !args.quiet {
         for w in scene.warnings() {
             eprintln!("warning: {w}");
@@ -185,6 +187,12 @@ fn render(args: RenderArgs) -> Result<(), String> {
             s.primary, s.shadow, s.reflection, s.refraction
         );
         println!("total       {} rays", s.total());
+        println!("load time   {:.3} s (parse and check the scene)", load_time.as_secs_f64());
+        println!(
+            "build time  {:.3} s ({} acceleration structure)",
+            out.build_time.as_secs_f64(),
+            AccelKind::from(args.accel).name()
+        );
         println!("render time {:.3} s", secs);
         println!("speed       {:.2} Mrays/s", s.total() as f64 / secs / 1e6);
     }
