@@ -92,9 +92,9 @@ impl Bvh {
         if bounds.is_empty() {
             return Bvh { nodes: vec![Node { min: [0.0; 3], first: 0, max: [0.0; 3], count: 0 }], indices };
         }
-        let centroids: Vec<Vec3> = bounds.iter().map(Aabb::center).collect();
-        let b = Builder { bounds, centroids: &centroids };
-        let nodes = b.subtree(&mut indices, 0, 0);
+        let b = Builder::new(bounds);
+        let root = b.range(&indices);
+        let nodes = b.subtree(&mut indices, root, 0, 0);
         Bvh { nodes, indices }
     }
 
@@ -187,41 +187,92 @@ pub fn traverse_nodes(
     }
 }
 
-struct Builder<'a> {
-    bounds: &'a [Aabb],
-    centroids: &'a [Vec3],
+/// A box in SIMD registers, for the builder's inner loops.
+#[derive(Clone, Copy, Debug)]
+struct Box3 {
+    min: Vec3A,
+    max: Vec3A,
 }
 
-/// A split found by the binned SAH.
+impl Box3 {
+    const EMPTY: Box3 = Box3 { min: Vec3A::splat(f32::INFINITY), max: Vec3A::splat(f32::NEG_INFINITY) };
+
+    #[inline(always)]
+    fn union(self, o: Box3) -> Box3 {
+        Box3 { min: self.min.min(o.min), max: self.max.max(o.max) }
+    }
+
+    #[inline(always)]
+    fn grow(self, p: Vec3A) -> Box3 {
+        Box3 { min: self.min.min(p), max: self.max.max(p) }
+    }
+
+    #[inline(always)]
+    fn area(&self) -> f32 {
+        let d = (self.max - self.min).max(Vec3A::ZERO);
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+}
+
+struct Builder {
+    bounds: Vec<Box3>,
+    centroids: Vec<Vec3A>,
+}
+
+/// What the builder knows of a range of primitives before deciding how to split it.
+#[derive(Clone, Copy)]
+struct Range {
+    bounds: Box3,
+    centroids: Box3,
+}
+
+/// A split found by the binned SAH, with the boxes of its two sides.
 struct Split {
     axis: usize,
     /// Bins `< bin` go left.
     bin: usize,
     cost: f32,
+    left: Box3,
+    right: Box3,
+    left_count: usize,
 }
 
-impl Builder<'_> {
+impl Builder {
+    fn new(bounds: &[Aabb]) -> Builder {
+        let bounds: Vec<Box3> = bounds.iter().map(|b| Box3 { min: b.min.into(), max: b.max.into() }).collect();
+        let centroids = bounds.iter().map(|b| 0.5 * (b.min + b.max)).collect();
+        Builder { bounds, centroids }
+    }
+
+    fn range(&self, idx: &[u32]) -> Range {
+        idx.iter().fold(Range { bounds: Box3::EMPTY, centroids: Box3::EMPTY }, |r, &i| Range {
+            bounds: r.bounds.union(self.bounds[i as usize]),
+            centroids: r.centroids.grow(self.centroids[i as usize]),
+        })
+    }
+
+    fn node(r: &Range, first: usize, count: usize) -> Node {
+        Node { min: r.bounds.min.to_array(), first: first as u32, max: r.bounds.max.to_array(), count: count as u32 }
+    }
+
     /// Builds the subtree over `idx` (which starts at `offset` in the full index list)
     /// into a node list whose root is at 0.
-    fn subtree(&self, idx: &mut [u32], offset: usize, depth: usize) -> Vec<Node> {
+    fn subtree(&self, idx: &mut [u32], r: Range, offset: usize, depth: usize) -> Vec<Node> {
         if idx.len() < PARALLEL_MIN {
-            let mut nodes = Vec::with_capacity(2 * idx.len());
-            nodes.push(self.leaf(idx, offset));
-            self.split_sequential(&mut nodes, 0, idx, offset, depth);
+            let mut nodes = Vec::with_capacity(idx.len());
+            nodes.push(Builder::node(&r, offset, idx.len()));
+            self.split_sequential(&mut nodes, 0, idx, r, offset, depth);
             return nodes;
         }
-        let mut root = self.leaf(idx, offset);
-        let Some(mid) = self.partition(idx, depth) else {
-            return vec![root];
+        let Some((mid, lr, rr)) = self.partition(idx, &r, depth) else {
+            return vec![Builder::node(&r, offset, idx.len())];
         };
-        let (l, r) = idx.split_at_mut(mid);
+        let (l, rt) = idx.split_at_mut(mid);
         let (left, right) =
-            rayon::join(|| self.subtree(l, offset, depth + 1), || self.subtree(r, offset + mid, depth + 1));
+            rayon::join(|| self.subtree(l, lr, offset, depth + 1), || self.subtree(rt, rr, offset + mid, depth + 1));
         // Lay out: root, the two child roots, then the rest of each subtree.
         let mut nodes = Vec::with_capacity(1 + left.len() + right.len());
-        root.count = 0;
-        root.first = 1;
-        nodes.push(root);
+        nodes.push(Node { count: 0, ..Builder::node(&r, 1, 0) });
         let left_shift = 3 - 1;
         let right_shift = 3 + (left.len() - 1) - 1;
         let relink = |mut n: Node, shift: usize| {
@@ -237,101 +288,121 @@ impl Builder<'_> {
         nodes
     }
 
-    fn split_sequential(&self, nodes: &mut Vec<Node>, at: usize, idx: &mut [u32], offset: usize, depth: usize) {
-        let Some(mid) = self.partition(idx, depth) else {
+    fn split_sequential(
+        &self,
+        nodes: &mut Vec<Node>,
+        at: usize,
+        idx: &mut [u32],
+        r: Range,
+        offset: usize,
+        depth: usize,
+    ) {
+        let Some((mid, lr, rr)) = self.partition(idx, &r, depth) else {
             return;
         };
-        let (l, r) = idx.split_at_mut(mid);
+        let (l, rt) = idx.split_at_mut(mid);
         let first = nodes.len();
-        nodes.push(self.leaf(l, offset));
-        nodes.push(self.leaf(r, offset + mid));
+        nodes.push(Builder::node(&lr, offset, l.len()));
+        nodes.push(Builder::node(&rr, offset + mid, rt.len()));
         nodes[at].first = first as u32;
         nodes[at].count = 0;
-        self.split_sequential(nodes, first, l, offset, depth + 1);
-        self.split_sequential(nodes, first + 1, r, offset + mid, depth + 1);
+        self.split_sequential(nodes, first, l, lr, offset, depth + 1);
+        self.split_sequential(nodes, first + 1, rt, rr, offset + mid, depth + 1);
     }
 
-    /// A leaf over `idx`, with its box.
-    fn leaf(&self, idx: &[u32], offset: usize) -> Node {
-        let b = idx.iter().fold(Aabb::EMPTY, |b, &i| b.union(self.bounds[i as usize]));
-        Node { min: b.min.to_array(), first: offset as u32, max: b.max.to_array(), count: idx.len() as u32 }
-    }
-
-    /// Reorders `idx` into two non-empty halves and returns where the right one starts,
-    /// or `None` when a leaf is better (or the depth limit is reached).
-    fn partition(&self, idx: &mut [u32], depth: usize) -> Option<usize> {
+    /// Reorders `idx` into two non-empty halves and returns where the right one starts
+    /// with what is known of each half, or `None` when a leaf is better (or the depth
+    /// limit is reached).
+    fn partition(&self, idx: &mut [u32], r: &Range, depth: usize) -> Option<(usize, Range, Range)> {
         let n = idx.len();
         if n <= 1 || depth + 1 >= MAX_DEPTH {
             return None;
         }
-        let cb = idx.iter().fold(Aabb::EMPTY, |b, &i| b.grow(self.centroids[i as usize]));
-        let extent = cb.max - cb.min;
-        let split = self.best_split(idx, &cb);
-        let leaf_cost = n as f32;
-        match split {
-            Some(s) if s.cost < leaf_cost || n > MAX_LEAF => {
-                let k = BINS as f32 / extent[s.axis];
-                let (lo, axis) = (cb.min[s.axis], s.axis);
+        let split = self.best_split(idx, r);
+        let mid = match &split {
+            Some(s) if s.cost < n as f32 || n > MAX_LEAF => {
+                let (lo, axis) = (r.centroids.min[s.axis], s.axis);
+                let k = BINS as f32 / (r.centroids.max[axis] - lo);
                 let bin_of = |i: u32| (((self.centroids[i as usize][axis] - lo) * k) as usize).min(BINS - 1);
-                let mid = partition_in_place(idx, |&i| bin_of(i) < s.bin);
-                // Binning can round every centroid into one side; fall back to halves.
-                (mid > 0 && mid < n).then_some(mid).or((n > MAX_LEAF).then_some(n / 2))
+                partition_in_place(idx, |&i| bin_of(i) < s.bin)
             }
-            Some(_) => None,
+            Some(_) => return None,
             // All centroids coincide: no plane separates them; split by count if too many.
-            None if n > MAX_LEAF => Some(n / 2),
-            None => None,
+            None if n > MAX_LEAF => n / 2,
+            None => return None,
+        };
+        // Binning can round every centroid into one side; fall back to halves.
+        let mid = if mid > 0 && mid < n {
+            mid
+        } else if n > MAX_LEAF {
+            n / 2
+        } else {
+            return None;
+        };
+        let (l, rt) = idx.split_at(mid);
+        // The SAH bins already give each side's box; only the centroid boxes need a pass.
+        let centroids = |part: &[u32]| part.iter().fold(Box3::EMPTY, |b, &i| b.grow(self.centroids[i as usize]));
+        match split {
+            // The partition followed the bins, so their boxes describe the two sides.
+            Some(s) if mid == s.left_count => Some((
+                mid,
+                Range { bounds: s.left, centroids: centroids(l) },
+                Range { bounds: s.right, centroids: centroids(rt) },
+            )),
+            _ => Some((mid, self.range(l), self.range(rt))),
         }
     }
 
-    fn best_split(&self, idx: &[u32], cb: &Aabb) -> Option<Split> {
-        let extent = cb.max - cb.min;
-        let parent_area = area(&idx.iter().fold(Aabb::EMPTY, |b, &i| b.union(self.bounds[i as usize])));
+    /// Bins the centroids along all three axes in one pass and costs every plane
+    /// between bins with the surface area heuristic.
+    fn best_split(&self, idx: &[u32], r: &Range) -> Option<Split> {
+        let extent = r.centroids.max - r.centroids.min;
+        let k = Vec3A::splat(BINS as f32) / extent;
+        let mut boxes = [[Box3::EMPTY; BINS]; 3];
+        let mut counts = [[0u32; BINS]; 3];
+        for &i in idx {
+            let c = self.centroids[i as usize];
+            let b = self.bounds[i as usize];
+            let f = (c - r.centroids.min) * k;
+            for axis in 0..3 {
+                // NaN (zero extent) casts to 0: every primitive lands in bin 0.
+                let bin = (f[axis] as usize).min(BINS - 1);
+                boxes[axis][bin] = boxes[axis][bin].union(b);
+                counts[axis][bin] += 1;
+            }
+        }
+        let parent_area = r.bounds.area().max(f32::MIN_POSITIVE);
         let mut best: Option<Split> = None;
         for axis in 0..3 {
             if !(extent[axis] > 0.0) {
                 continue;
             }
-            let k = BINS as f32 / extent[axis];
-            let mut boxes = [Aabb::EMPTY; BINS];
-            let mut counts = [0u32; BINS];
-            for &i in idx {
-                let b = (((self.centroids[i as usize][axis] - cb.min[axis]) * k) as usize).min(BINS - 1);
-                boxes[b] = boxes[b].union(self.bounds[i as usize]);
-                counts[b] += 1;
-            }
             // Sweep from the right, then from the left, to cost each of the BINS-1 planes.
-            let mut right_area = [0.0f32; BINS];
+            let mut right_box = [Box3::EMPTY; BINS];
             let mut right_count = [0u32; BINS];
-            let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+            let (mut acc, mut cnt) = (Box3::EMPTY, 0);
             for b in (1..BINS).rev() {
-                acc = acc.union(boxes[b]);
-                cnt += counts[b];
-                right_area[b] = area(&acc);
+                acc = acc.union(boxes[axis][b]);
+                cnt += counts[axis][b];
+                right_box[b] = acc;
                 right_count[b] = cnt;
             }
-            let (mut acc, mut cnt) = (Aabb::EMPTY, 0);
+            let (mut acc, mut cnt) = (Box3::EMPTY, 0);
             for b in 1..BINS {
-                acc = acc.union(boxes[b - 1]);
-                cnt += counts[b - 1];
+                acc = acc.union(boxes[axis][b - 1]);
+                cnt += counts[axis][b - 1];
                 if cnt == 0 || right_count[b] == 0 {
                     continue;
                 }
                 let cost = TRAVERSAL_COST
-                    + (area(&acc) * cnt as f32 + right_area[b] * right_count[b] as f32)
-                        / parent_area.max(f32::MIN_POSITIVE);
+                    + (acc.area() * cnt as f32 + right_box[b].area() * right_count[b] as f32) / parent_area;
                 if best.as_ref().is_none_or(|s| cost < s.cost) {
-                    best = Some(Split { axis, bin: b, cost });
+                    best = Some(Split { axis, bin: b, cost, left: acc, right: right_box[b], left_count: cnt as usize });
                 }
             }
         }
         best
     }
-}
-
-fn area(b: &Aabb) -> f32 {
-    let d = (b.max - b.min).max(Vec3::ZERO);
-    2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
 }
 
 /// Moves the elements for which `left` holds to the front; returns how many there are.

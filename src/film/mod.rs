@@ -75,11 +75,13 @@ impl PendingOutput {
             Some(d) if !d.as_os_str().is_empty() => d,
             _ => Path::new("."),
         };
-        let temp = tempfile::Builder::new()
-            .prefix(".whitted-")
-            .suffix(".png.tmp")
-            .tempfile_in(dir)
-            .map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
+        let mut builder = tempfile::Builder::new();
+        builder.prefix(".whitted-").suffix(".png.tmp");
+        // An image is an ordinary file: rw for everyone the umask allows, not the
+        // owner-only mode temporary files get by default.
+        #[cfg(unix)]
+        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+        let temp = builder.tempfile_in(dir).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
         Ok(PendingOutput { path: path.to_owned(), temp })
     }
 

@@ -1,57 +1,249 @@
-//! PLACEHOLDER until the texture module lands (being written in parallel).
-use crate::math::{Color, Vec2, Vec3};
+//! Textures: what colour a surface has at a hit point.
+//!
+//! [`Texture`] is a closed `enum`, like the shapes, so the shading hot path is one `match`
+//! with no allocation and no virtual call. Solid-space patterns (stripes, checker) read the
+//! world-space point; images read the surface's `uv`. [`planet`] makes the equirectangular
+//! map for the demo scene's globe, since the Earth map of the original cannot be shipped.
+
+mod image_map;
+mod noise;
+mod planet;
+
+use std::fmt;
 use std::sync::Arc;
 
+pub use image_map::ImageMap;
+pub use planet::planet;
+
+use crate::math::{Color, Vec2, Vec3};
+
+/// How a surface's colour varies over it. Cheap to clone: images are shared.
 #[derive(Clone, Debug)]
 pub enum Texture {
     Solid(Color),
-    Stripes { axis: Vec3, width: f32, colors: [Color; 2] },
-    Checker { size: f32, offset: Vec3, colors: [Color; 2] },
-    Image { map: Arc<ImageMap>, scale: Vec2, offset: Vec2 },
+    /// Bands of `width` perpendicular to unit `axis`, in world space: even bands get
+    /// `colors[0]`, odd ones `colors[1]`, counting from the plane through the origin.
+    Stripes {
+        axis: Vec3,
+        width: f32,
+        colors: [Color; 2],
+    },
+    /// 3-D checkerboard of cubes of edge `size`, shifted by `offset` (it looks up
+    /// `p + offset`) so the squares can be lined up with a floor's edges.
+    Checker {
+        size: f32,
+        offset: Vec3,
+        colors: [Color; 2],
+    },
+    /// An image looked up at `uv * scale + offset`, repeated, filtered bilinearly.
+    Image {
+        map: Arc<ImageMap>,
+        scale: Vec2,
+        offset: Vec2,
+    },
 }
+
 impl Texture {
-    pub fn color(&self, p: Vec3, _uv: Vec2) -> Color {
+    /// An image once over the surface: the common case, and the one the sphere's seam
+    /// handling is written for.
+    pub fn image(map: Arc<ImageMap>) -> Self {
+        Texture::Image { map, scale: Vec2::ONE, offset: Vec2::ZERO }
+    }
+
+    /// Colour at world point `p` with surface coordinates `uv`. Total: any input, even
+    /// NaN or infinite (a degenerate hit), gives some colour rather than a panic.
+    #[inline]
+    pub fn color(&self, p: Vec3, uv: Vec2) -> Color {
         match self {
             Texture::Solid(c) => *c,
-            Texture::Stripes { axis, width, colors } => {
-                colors[((p.dot(*axis) / width).floor() as i64).rem_euclid(2) as usize]
-            }
+            Texture::Stripes { axis, width, colors } => colors[parity(p.dot(*axis) / *width)],
             Texture::Checker { size, offset, colors } => {
-                let q = ((p + *offset) / *size).floor();
-                colors[((q.x + q.y + q.z) as i64).rem_euclid(2) as usize]
+                let q = (p + *offset) / *size;
+                colors[parity(q.x) ^ parity(q.y) ^ parity(q.z)]
             }
-            Texture::Image { .. } => Color::ONE,
+            Texture::Image { map, scale, offset } => {
+                let uv = uv * *scale + *offset;
+                map.sample(Vec2::new(wrap01(uv.x), wrap01(uv.y)))
+            }
         }
     }
 }
-#[derive(Debug, Clone, PartialEq)]
-pub struct ImageMap {
-    width: u32,
-    height: u32,
-    texels: Vec<Color>,
+
+/// 0 if `floor(t)` is even, 1 if odd, also for negative `t` (where `%` would give -1).
+/// The `as` cast saturates and maps NaN to 0, so no input panics.
+#[inline]
+fn parity(t: f32) -> usize {
+    (t.floor() as i64).rem_euclid(2) as usize
 }
+
+/// `t` wrapped into [0, 1]; non-finite input goes to 0 so it cannot reach an index.
+#[inline]
+fn wrap01(t: f32) -> f32 {
+    let f = t - t.floor();
+    if f.is_finite() { f } else { 0.0 }
+}
+
+/// Why an image texture could not be loaded or saved. The messages leave out the file
+/// name: the scene loader that called us knows it, and the line that named it.
 #[derive(Debug)]
-pub struct TextureError(pub String);
-impl std::fmt::Display for TextureError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+pub enum TextureError {
+    /// No file at that path.
+    NotFound(std::io::Error),
+    /// The file exists but could not be read (permissions, a directory, an I/O fault).
+    Unreadable(std::io::Error),
+    /// Its content (or, failing that, its name) says neither PNG nor JPEG.
+    Unsupported(image::ImageError),
+    /// It claims to be PNG or JPEG but does not decode.
+    Corrupt(image::ImageError),
+    /// It decodes to no texels at all, which nothing could be sampled from.
+    Empty { width: u32, height: u32 },
+    /// Saving failed (a missing directory, a full disk).
+    Write(image::ImageError),
+}
+
+impl fmt::Display for TextureError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TextureError::NotFound(e) => write!(f, "image file not found: {e}"),
+            TextureError::Unreadable(e) => write!(f, "cannot read image file: {e}"),
+            TextureError::Unsupported(e) => {
+                write!(f, "unsupported image format (PNG or JPEG expected): {e}")
+            }
+            TextureError::Corrupt(e) => write!(f, "corrupt or truncated image: {e}"),
+            TextureError::Empty { width, height } => {
+                write!(f, "image is empty ({width}x{height} texels)")
+            }
+            TextureError::Write(e) => write!(f, "cannot write image: {e}"),
+        }
     }
 }
-impl std::error::Error for TextureError {}
-impl ImageMap {
-    pub fn load(_p: &std::path::Path) -> Result<ImageMap, TextureError> {
-        Err(TextureError("placeholder".into()))
-    }
-    pub fn width(&self) -> u32 {
-        self.width
-    }
-    pub fn height(&self) -> u32 {
-        self.height
-    }
-    pub fn save_png(&self, _p: &std::path::Path) -> Result<(), TextureError> {
-        Ok(())
+
+impl std::error::Error for TextureError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            TextureError::NotFound(e) | TextureError::Unreadable(e) => Some(e),
+            TextureError::Unsupported(e) | TextureError::Corrupt(e) | TextureError::Write(e) => Some(e),
+            TextureError::Empty { .. } => None,
+        }
     }
 }
-pub fn planet(width: u32, height: u32, _seed: u64) -> ImageMap {
-    ImageMap { width, height, texels: vec![Color::ONE; (width * height) as usize] }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BLACK: Color = Vec3::ZERO;
+    const WHITE: Color = Vec3::ONE;
+
+    fn stripes() -> Texture {
+        Texture::Stripes { axis: Vec3::X, width: 2.0, colors: [BLACK, WHITE] }
+    }
+
+    #[test]
+    fn stripes_alternate_across_a_boundary() {
+        let t = stripes();
+        assert_eq!(t.color(Vec3::new(1.99, 5.0, -3.0), Vec2::ZERO), BLACK);
+        assert_eq!(t.color(Vec3::new(2.01, 5.0, -3.0), Vec2::ZERO), WHITE);
+        assert_eq!(t.color(Vec3::new(4.01, 5.0, -3.0), Vec2::ZERO), BLACK);
+    }
+
+    #[test]
+    fn stripes_continue_the_pattern_at_negative_coordinates() {
+        let t = stripes();
+        // [-2, 0) is band -1 (odd), [-4, -2) band -2 (even): no double-width band at 0.
+        assert_eq!(t.color(Vec3::new(0.01, 0.0, 0.0), Vec2::ZERO), BLACK);
+        assert_eq!(t.color(Vec3::new(-0.01, 0.0, 0.0), Vec2::ZERO), WHITE);
+        assert_eq!(t.color(Vec3::new(-2.01, 0.0, 0.0), Vec2::ZERO), BLACK);
+        assert_eq!(t.color(Vec3::new(-4.01, 0.0, 0.0), Vec2::ZERO), WHITE);
+    }
+
+    #[test]
+    fn stripes_follow_a_diagonal_axis() {
+        let axis = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let t = Texture::Stripes { axis, width: 1.0, colors: [BLACK, WHITE] };
+        assert_eq!(t.color(axis * 0.5, Vec2::ZERO), BLACK);
+        assert_eq!(t.color(axis * 1.5, Vec2::ZERO), WHITE);
+        // Moving along the band (perpendicular to the axis) keeps the colour.
+        assert_eq!(t.color(axis * 1.5 + Vec3::new(7.0, -7.0, 3.0), Vec2::ZERO), WHITE);
+    }
+
+    #[test]
+    fn checker_flips_parity_along_each_axis_with_offset() {
+        let offset = Vec3::new(0.5, 0.25, -0.5);
+        let t = Texture::Checker { size: 1.0, offset, colors: [BLACK, WHITE] };
+        // Centre of the cube [0,1)^3 in shifted space is even.
+        let base = Vec3::splat(0.5) - offset;
+        assert_eq!(t.color(base, Vec2::ZERO), BLACK);
+        for axis in [Vec3::X, Vec3::Y, Vec3::Z] {
+            assert_eq!(t.color(base + axis, Vec2::ZERO), WHITE, "+{axis}");
+            assert_eq!(t.color(base - axis, Vec2::ZERO), WHITE, "-{axis}");
+            assert_eq!(t.color(base + 2.0 * axis, Vec2::ZERO), BLACK, "+2 {axis}");
+        }
+        // Two steps on different axes cancel.
+        assert_eq!(t.color(base + Vec3::X - Vec3::Z, Vec2::ZERO), BLACK);
+        assert_eq!(t.color(base + Vec3::new(1.0, 1.0, 1.0), Vec2::ZERO), WHITE);
+    }
+
+    #[test]
+    fn checker_respects_cube_size() {
+        let t = Texture::Checker { size: 10.0, offset: Vec3::ZERO, colors: [BLACK, WHITE] };
+        assert_eq!(t.color(Vec3::new(9.0, 1.0, 1.0), Vec2::ZERO), BLACK);
+        assert_eq!(t.color(Vec3::new(11.0, 1.0, 1.0), Vec2::ZERO), WHITE);
+        assert_eq!(t.color(Vec3::new(-1.0, 1.0, 1.0), Vec2::ZERO), WHITE);
+    }
+
+    fn two_by_two() -> Arc<ImageMap> {
+        let texels = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
+        Arc::new(ImageMap::from_fn(2, 2, |x, y| texels[(y * 2 + x) as usize]))
+    }
+
+    #[test]
+    fn image_texture_scales_and_offsets_uv_and_repeats() {
+        let map = two_by_two();
+        let t = Texture::Image { map: map.clone(), scale: Vec2::splat(2.0), offset: Vec2::ZERO };
+        // uv 0.125 -> 0.25: centre of texel (0, 0); uv 0.625 -> 1.25 -> 0.25 again.
+        let a = t.color(Vec3::ZERO, Vec2::splat(0.125));
+        let b = t.color(Vec3::ZERO, Vec2::splat(0.625));
+        assert!((a - Vec3::X).abs().max_element() < 1e-5, "{a}");
+        assert!((b - Vec3::X).abs().max_element() < 1e-5, "{b}");
+        let shifted = Texture::Image { map, scale: Vec2::ONE, offset: Vec2::new(0.5, 0.0) };
+        let c = shifted.color(Vec3::ZERO, Vec2::splat(0.25));
+        assert!((c - Vec3::Y).abs().max_element() < 1e-5, "{c}");
+    }
+
+    #[test]
+    fn no_input_panics_or_escapes_the_image() {
+        let textures = [
+            Texture::Solid(WHITE),
+            stripes(),
+            Texture::Stripes { axis: Vec3::X, width: 0.0, colors: [BLACK, WHITE] },
+            Texture::Checker { size: 1.0, offset: Vec3::ZERO, colors: [BLACK, WHITE] },
+            Texture::Checker { size: 0.0, offset: Vec3::ZERO, colors: [BLACK, WHITE] },
+            Texture::image(two_by_two()),
+            Texture::Image { map: two_by_two(), scale: Vec2::splat(1e30), offset: Vec2::NAN },
+        ];
+        let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MAX, f32::MIN, -0.0, 1e-45];
+        for t in &textures {
+            for &a in &bad {
+                for &b in &bad {
+                    let c = t.color(Vec3::new(a, b, a), Vec2::new(a, b));
+                    if let Texture::Image { .. } = t {
+                        assert!(c.is_finite(), "{t:?} at ({a}, {b}) gave {c}");
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn errors_describe_the_problem_and_keep_the_cause() {
+        use std::error::Error;
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = TextureError::NotFound(io);
+        assert!(e.to_string().contains("not found"));
+        assert!(e.to_string().contains("no such file"));
+        assert!(e.source().is_some());
+        let e = TextureError::Empty { width: 0, height: 3 };
+        assert!(e.to_string().contains("empty"));
+    }
 }
