@@ -52,6 +52,12 @@ pub struct BenchRow {
     pub shadow_mrays: f64,
     pub incoherent_mrays: f64,
     pub frame_ms: f64,
+    /// The same rates per CPU-second of all threads (immune to other load on the machine).
+    pub primary_mrays_per_cpu_s: f64,
+    pub shadow_mrays_per_cpu_s: f64,
+    pub incoherent_mrays_per_cpu_s: f64,
+    /// CPU seconds of one build.
+    pub build_cpu_s: f64,
     /// Share of primary rays that hit something (a check that the camera sees the scene).
     pub primary_hit_frac: f64,
     pub runs: usize,
@@ -254,17 +260,39 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// Times `f` over `runs` runs; returns the median in seconds.
-fn timed(runs: usize, mut f: impl FnMut()) -> f64 {
-    median(
-        (0..runs)
-            .map(|_| {
-                let t = Instant::now();
-                f();
-                t.elapsed().as_secs_f64()
-            })
-            .collect(),
-    )
+/// CPU time (user + system) used so far by all threads of this process, in seconds.
+/// Rates per CPU-second stay comparable when other programs share the machine.
+#[allow(unsafe_code)]
+pub fn process_cpu_seconds() -> f64 {
+    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
+    // SAFETY: getrusage writes a complete `rusage` into the pointer it is given, which
+    // points to a zeroed, properly aligned `rusage` that outlives the call; RUSAGE_SELF
+    // is a valid `who`. On failure (it cannot fail for RUSAGE_SELF) the zeroed value is
+    // read, which is a valid `rusage` of all zeros.
+    let usage = unsafe {
+        libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr());
+        usage.assume_init()
+    };
+    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
+    secs(usage.ru_utime) + secs(usage.ru_stime)
+}
+
+/// Median wall and CPU seconds of `runs` runs of `f`.
+#[derive(Clone, Copy)]
+struct Timing {
+    wall: f64,
+    cpu: f64,
+}
+
+fn timed(runs: usize, mut f: impl FnMut()) -> Timing {
+    let (mut wall, mut cpu) = (Vec::new(), Vec::new());
+    for _ in 0..runs {
+        let (t, c) = (Instant::now(), process_cpu_seconds());
+        f();
+        wall.push(t.elapsed().as_secs_f64());
+        cpu.push(process_cpu_seconds() - c);
+    }
+    Timing { wall: median(wall), cpu: median(cpu) }
 }
 
 /// Rays a parallel worker takes at a time.
@@ -306,19 +334,25 @@ pub fn run(case: &BenchCase, accel: AccelKind, runs: usize, threads: usize) -> B
         });
 
         let mrays = |n: usize, s: f64| n as f64 / s / 1e6;
+        let (build_s, primary_s, shadow_s, incoherent_s, frame_s) =
+            (build_s, primary_s, shadow_s, incoherent_s, frame_s);
         let bytes = world.memory_bytes();
         BenchRow {
             scene: case.name.clone(),
             primitives: case.primitives,
             accel: accel.name(),
             threads,
-            build_ms: build_s * 1e3,
+            build_ms: build_s.wall * 1e3,
+            build_cpu_s: build_s.cpu,
             accel_bytes: bytes,
             bytes_per_primitive: bytes as f64 / case.primitives.max(1) as f64,
-            primary_mrays: mrays(primary.len(), primary_s),
-            shadow_mrays: mrays(shadow.len(), shadow_s),
-            incoherent_mrays: mrays(incoherent.len(), incoherent_s),
-            frame_ms: frame_s * 1e3,
+            primary_mrays: mrays(primary.len(), primary_s.wall),
+            shadow_mrays: mrays(shadow.len(), shadow_s.wall),
+            incoherent_mrays: mrays(incoherent.len(), incoherent_s.wall),
+            frame_ms: frame_s.wall * 1e3,
+            primary_mrays_per_cpu_s: mrays(primary.len(), primary_s.cpu),
+            shadow_mrays_per_cpu_s: mrays(shadow.len(), shadow_s.cpu),
+            incoherent_mrays_per_cpu_s: mrays(incoherent.len(), incoherent_s.cpu),
             primary_hit_frac: primary_hits as f64 / primary.len() as f64,
             runs,
         }

@@ -5,6 +5,8 @@
 //! [`light`]s, and [`render`] gathers the pixels into the [`film`]. [`scene`] reads
 //! scene files or lets you build a scene in code.
 
+#![deny(unsafe_code)]
+
 pub mod accel;
 pub mod bench;
 pub mod camera;

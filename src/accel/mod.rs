@@ -9,8 +9,10 @@
 //! identical images.
 
 pub mod bvh;
+pub mod wide;
 
 pub use bvh::{Bvh, Node, Visit};
+pub use wide::Bvh4;
 
 use crate::geometry::{Hit, Mesh, Shape, intersect_triangle, part};
 use crate::math::{Ray, Vec2, Vec3};
@@ -52,7 +54,7 @@ struct PackedTriangle {
 /// A mesh's own BVH, with its triangles in leaf order.
 #[derive(Debug)]
 struct MeshBvh {
-    nodes: Vec<Node>,
+    tree: Bvh4,
     triangles: Vec<PackedTriangle>,
 }
 
@@ -69,18 +71,17 @@ impl MeshBvh {
                 PackedTriangle { v0, e1: v1 - v0, e2: v2 - v0, id }
             })
             .collect();
-        MeshBvh { nodes: bvh.nodes, triangles }
+        MeshBvh { tree: Bvh4::from_binary(&bvh), triangles }
     }
 
     fn memory_bytes(&self) -> usize {
-        self.nodes.capacity() * std::mem::size_of::<Node>()
-            + self.triangles.capacity() * std::mem::size_of::<PackedTriangle>()
+        self.tree.memory_bytes() + self.triangles.capacity() * std::mem::size_of::<PackedTriangle>()
     }
 
     #[inline]
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let mut best: Option<Hit> = None;
-        bvh::traverse_nodes(&self.nodes, ray, t_min, t_max, |range, mut t_cur| {
+        self.tree.traverse(ray, t_min, t_max, |range, mut t_cur| {
             for tri in &self.triangles[range] {
                 // Once something is hit the bound is inclusive, so an equally distant
                 // triangle with a lower id wins, as when every triangle is tested in order.
@@ -100,7 +101,7 @@ impl MeshBvh {
     #[inline]
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let mut hit = false;
-        bvh::traverse_nodes(&self.nodes, ray, t_min, t_max, |range, t_cur| {
+        self.tree.traverse(ray, t_min, t_max, |range, t_cur| {
             let blocked = self.triangles[range]
                 .iter()
                 .any(|tri| intersect_triangle(tri.v0, tri.e1, tri.e2, ray, t_min, t_max).is_some());
@@ -120,8 +121,10 @@ impl MeshBvh {
 pub struct World<'s> {
     scene: &'s Scene,
     kind: AccelKind,
-    /// Over objects; empty with `AccelKind::None`.
+    /// Over objects; empty with `AccelKind::None`. The wide tree is traversed; the
+    /// binary one's index list maps leaf positions to objects.
     top: Bvh,
+    top4: Bvh4,
     /// Per object: the BVH of a mesh object (with `AccelKind::Bvh`).
     meshes: Vec<Option<MeshBvh>>,
     /// Per object, the share of light its material lets through (0 = opaque), looked
@@ -135,7 +138,7 @@ impl<'s> World<'s> {
         let start = Instant::now();
         let transmission = scene.objects.iter().map(|o| scene.material(o.material).transparency).collect();
         let (top, meshes) = match kind {
-            AccelKind::None => (Bvh::default(), scene.objects.iter().map(|_| None).collect()),
+            AccelKind::None => (Bvh { nodes: vec![], indices: vec![] }, scene.objects.iter().map(|_| None).collect()),
             AccelKind::Bvh => {
                 use rayon::prelude::*;
                 let bounds: Vec<_> = scene.objects.iter().map(|o| o.shape.bounds()).collect();
@@ -150,7 +153,8 @@ impl<'s> World<'s> {
                 (Bvh::build(&bounds), meshes)
             }
         };
-        World { scene, kind, top, meshes, transmission, build_time: start.elapsed() }
+        let top4 = if top.nodes.is_empty() { Bvh4::default() } else { Bvh4::from_binary(&top) };
+        World { scene, kind, top, top4, meshes, transmission, build_time: start.elapsed() }
     }
 
     pub fn scene(&self) -> &'s Scene {
@@ -168,7 +172,24 @@ impl<'s> World<'s> {
 
     /// Bytes held by the acceleration structures (not the scene's own geometry).
     pub fn memory_bytes(&self) -> usize {
-        self.top.memory_bytes() + self.meshes.iter().flatten().map(MeshBvh::memory_bytes).sum::<usize>()
+        self.top.indices.capacity() * 4
+            + self.top4.memory_bytes()
+            + self.meshes.iter().flatten().map(MeshBvh::memory_bytes).sum::<usize>()
+    }
+
+    /// Objects whose boxes the ray enters, nearest first; `test(object, t_max)` as in
+    /// [`Bvh::traverse`].
+    #[inline]
+    fn traverse_objects(&self, ray: &Ray, t_min: f32, t_max: f32, mut test: impl FnMut(u32, f32) -> Visit) {
+        self.top4.traverse(ray, t_min, t_max, |range, mut t_cur| {
+            for &i in &self.top.indices[range] {
+                match test(i, t_cur) {
+                    Visit::Continue(t) => t_cur = t,
+                    Visit::Stop => return Visit::Stop,
+                }
+            }
+            Visit::Continue(t_cur)
+        })
     }
 
     #[inline]
@@ -202,7 +223,7 @@ impl<'s> World<'s> {
                     }
                 }
             }
-            AccelKind::Bvh => self.top.traverse(ray, t_min, t_max, |i, t_cur| {
+            AccelKind::Bvh => self.traverse_objects(ray, t_min, t_max, |i, t_cur| {
                 // Once something is hit the bound is inclusive, so an object at exactly
                 // the same distance with a lower index wins, as in the brute-force loop.
                 let limit = if best.is_some() { t_cur.next_up() } else { t_cur };
@@ -238,7 +259,7 @@ impl<'s> World<'s> {
                     }
                 }
             }
-            AccelKind::Bvh => self.top.traverse(ray, 0.0, t_max, |i, _| {
+            AccelKind::Bvh => self.traverse_objects(ray, 0.0, t_max, |i, _| {
                 if self.blocks(i as usize, ray, t_max) {
                     light *= self.transmission[i as usize] as f64;
                     if light == 0.0 {

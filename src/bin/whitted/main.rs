@@ -229,8 +229,20 @@ fn bench(args: BenchArgs) -> Result<(), String> {
     }
     if !args.json {
         println!(
-            "{:<22} {:>10} {:>5} {:>10} {:>10} {:>8} {:>9} {:>9} {:>11} {:>9}",
-            "scene", "prims", "accel", "build ms", "accel MB", "B/prim", "primary", "shadow", "incoherent", "frame ms"
+            "{:<22} {:>10} {:>5} {:>10} {:>10} {:>8} {:>9} {:>9} {:>11} {:>9}   per CPU-s: {:>7} {:>7} {:>7}",
+            "scene",
+            "prims",
+            "accel",
+            "build ms",
+            "accel MB",
+            "B/prim",
+            "primary",
+            "shadow",
+            "incoherent",
+            "frame ms",
+            "prim",
+            "shadow",
+            "incoh"
         );
     }
     for make in cases {
@@ -247,7 +259,7 @@ fn bench(args: BenchArgs) -> Result<(), String> {
                 println!("{}", serde_json::to_string(&row).map_err(|e| e.to_string())?);
             } else {
                 println!(
-                    "{:<22} {:>10} {:>5} {:>10.1} {:>10.2} {:>8.1} {:>9.2} {:>9.2} {:>11.2} {:>9.1}",
+                    "{:<22} {:>10} {:>5} {:>10.1} {:>10.2} {:>8.1} {:>9.2} {:>9.2} {:>11.2} {:>9.1}              {:>7.2} {:>7.2} {:>7.2}",
                     row.scene,
                     row.primitives,
                     row.accel,
@@ -257,7 +269,10 @@ fn bench(args: BenchArgs) -> Result<(), String> {
                     row.primary_mrays,
                     row.shadow_mrays,
                     row.incoherent_mrays,
-                    row.frame_ms
+                    row.frame_ms,
+                    row.primary_mrays_per_cpu_s,
+                    row.shadow_mrays_per_cpu_s,
+                    row.incoherent_mrays_per_cpu_s
                 );
             }
         }
