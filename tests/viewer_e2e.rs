@@ -233,17 +233,24 @@ fn start(tmp: &Path, scene_file: &Path) -> Session {
         ])
         .arg(&fbdir)
         .stdout(Stdio::piped())
-        .stderr(Stdio::null())
+        .stderr(Stdio::piped())
         .spawn()
         .expect("start Xvfb");
-    let number = Lines::default();
+    let (number, xvfb_err) = (Lines::default(), Lines::default());
     number.follow(xvfb.stdout.take().unwrap());
+    xvfb_err.follow(xvfb.stderr.take().unwrap());
     let xvfb = Killed(xvfb);
     assert!(
         wait_until(Duration::from_secs(10), || number.any(|l| !l.trim().is_empty())),
-        "Xvfb did not start"
+        "Xvfb did not start: {}",
+        xvfb_err.text()
     );
     let display = format!(":{}", number.text().trim());
+    // Only start the viewer once the server answers.
+    let answers = wait_until(Duration::from_secs(10), || {
+        run(&display, "xdotool", &["getdisplaygeometry"]).is_ok()
+    });
+    assert!(answers, "Xvfb on {display} does not answer: {}", xvfb_err.text());
 
     let mut viewer = Command::new(env!("CARGO_BIN_EXE_whitted"))
         .args(["view", "--timing"])
@@ -270,7 +277,12 @@ fn start(tmp: &Path, scene_file: &Path) -> Session {
             .to_owned();
         !window.is_empty()
     });
-    assert!(found, "no window appeared\n--- stderr\n{}", err.text());
+    assert!(
+        found,
+        "no window appeared on {display}\n--- stderr\n{}\n--- Xvfb\n{}",
+        err.text(),
+        xvfb_err.text()
+    );
     let geometry = run(&display, "xdotool", &["getwindowgeometry", "--shell", &window]).unwrap();
     let get = |k: &str| -> usize {
         geometry
@@ -320,7 +332,9 @@ fn view_shows_reacts_saves_reloads_and_quits() {
     let mut s = start(tmp.path(), &scene_file);
 
     // 1. The scene shows: the red ball in the middle, a lit floor, not a blank window.
-    s.wait_line("the first frame", Duration::from_secs(10), |l| l.contains("first frame on screen"));
+    s.wait_line("the first frame", Duration::from_secs(10), |l| {
+        l.contains("first frame on screen")
+    });
     s.wait_full_quality(1);
     let first = s.shot();
     first.keep("1-first.png");
