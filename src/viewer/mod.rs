@@ -376,7 +376,7 @@ impl Viewer {
         let accel = if crate::accel::AccelKind::ALL.len() < 2 {
             "BVH n/a".to_owned()
         } else {
-            format!("{:?}", s.accel_kind())
+            format!("accel {:?}", s.accel_kind())
         };
         lines.push((format!("AA {aa}  {accel}  h: keys"), GREY));
         if s.show_help {
