@@ -20,6 +20,7 @@ pub mod render;
 pub mod sampler;
 pub mod scene;
 pub mod texture;
+pub mod viewer;
 
 /// Everything needed to build and render a scene in code.
 pub mod prelude {

@@ -3,13 +3,14 @@
 //! the image is the same for any thread count.
 
 use crate::accel::{AccelKind, World};
-use crate::camera::CameraError;
+use crate::camera::{Camera, CameraError};
 use crate::film::Image;
 use crate::integrator::{Integrator, RayStats};
 use crate::math::{Color, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Tile edge in pixels: small enough to balance load across threads, big enough that
@@ -21,6 +22,7 @@ const TILE: u32 = 16;
 #[derive(Clone, Debug)]
 pub struct Renderer<'s> {
     scene: &'s Scene,
+    camera: Camera,
     width: u32,
     height: u32,
     spp: u32,
@@ -49,6 +51,7 @@ impl<'s> Renderer<'s> {
         scene.camera.rig()?;
         Ok(Renderer {
             scene,
+            camera: scene.camera,
             width: scene.camera.width,
             height: scene.camera.height,
             spp: scene.settings.samples.max(1),
@@ -62,6 +65,14 @@ impl<'s> Renderer<'s> {
         self.width = width.max(1);
         self.height = height.max(1);
         self
+    }
+
+    /// Looks through `camera` instead of the scene's own (an interactive viewer moves it
+    /// without copying the scene). Its width and height are ignored: see [`Self::size`].
+    pub fn camera(mut self, camera: Camera) -> Result<Self, CameraError> {
+        camera.rig()?;
+        self.camera = camera;
+        Ok(self)
     }
 
     /// Samples per pixel (see [`pixel_samples`] for their layout).
@@ -95,16 +106,33 @@ impl<'s> Renderer<'s> {
     pub fn render_with_progress(&self, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
         self.in_pool(|| {
             let world = World::new(self.scene, self.accel);
-            let mut out = self.render_tiles(&world, progress);
+            let mut out = self.render_tiles(&world, progress, None).expect("a render without a cancel flag completes");
             out.build_time = world.build_time();
             out
         })
     }
 
     /// Renders with an acceleration structure built beforehand (benchmarks time the two
-    /// apart). `world` must have been built from this renderer's scene.
+    /// apart; the viewer builds once per scene). `world` must come from this scene.
     pub fn render_world(&self, world: &World) -> RenderOutput {
-        self.in_pool(|| self.render_tiles(world, &|_, _| {}))
+        self.in_pool(|| self.render_tiles(world, &|_, _| {}, None)).expect("a render without a cancel flag completes")
+    }
+
+    /// Renders unless `cancel` becomes true first, in which case it returns `None` soon
+    /// after: the flag is checked before every tile, so a stale frame in an interactive
+    /// viewer stops within one tile's time rather than one image's.
+    pub fn render_cancellable(&self, cancel: &AtomicBool) -> Option<RenderOutput> {
+        self.in_pool(|| {
+            let world = World::new(self.scene, self.accel);
+            let mut out = self.render_tiles(&world, &|_, _| {}, Some(cancel))?;
+            out.build_time = world.build_time();
+            Some(out)
+        })
+    }
+
+    /// [`Renderer::render_cancellable`] with a prebuilt acceleration structure.
+    pub fn render_world_cancellable(&self, world: &World, cancel: &AtomicBool) -> Option<RenderOutput> {
+        self.in_pool(|| self.render_tiles(world, &|_, _| {}, Some(cancel)))
     }
 
     /// Runs `f` on this renderer's thread pool (or the global one).
@@ -115,12 +143,17 @@ impl<'s> Renderer<'s> {
         }
     }
 
-    fn render_tiles(&self, world: &World, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
+    fn render_tiles(
+        &self,
+        world: &World,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        cancel: Option<&AtomicBool>,
+    ) -> Option<RenderOutput> {
         let start = Instant::now();
-        let mut camera = self.scene.camera;
+        let mut camera = self.camera;
         camera.width = self.width;
         camera.height = self.height;
-        let rig = camera.rig().expect("checked in Renderer::new");
+        let rig = camera.rig().expect("checked in Renderer::new and Renderer::camera");
         let integrator = Integrator::new(world, self.max_depth);
 
         let tiles_x = self.width.div_ceil(TILE);
@@ -130,6 +163,9 @@ impl<'s> Renderer<'s> {
         let tiles: Vec<(Vec<Color>, RayStats)> = (0..total)
             .into_par_iter()
             .map(|t| {
+                if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                    return None;
+                }
                 let (x0, y0) = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
                 let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
                 let mut stats = RayStats::default();
@@ -147,10 +183,10 @@ impl<'s> Renderer<'s> {
                         pixels.push(sum / samples.len() as f32);
                     }
                 }
-                progress(done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1, total);
-                (pixels, stats)
+                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                Some((pixels, stats))
             })
-            .collect();
+            .collect::<Option<_>>()?;
 
         let mut image = Image::new(self.width, self.height);
         let mut stats = RayStats::default();
@@ -162,6 +198,42 @@ impl<'s> Renderer<'s> {
                 image.set(x0 + i as u32 % w, y0 + i as u32 / w, c);
             }
         }
-        RenderOutput { image, stats, elapsed: start.elapsed(), build_time: Duration::ZERO, spp: self.spp }
+        Some(RenderOutput { image, stats, elapsed: start.elapsed(), build_time: Duration::ZERO, spp: self.spp })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::prelude::*;
+
+    fn scene() -> Scene {
+        let mut scene = Scene::new(Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 45.0, 48, 32));
+        let red = scene.add_material(Material::color(Color::new(1.0, 0.0, 0.0)));
+        scene.add(Sphere::new(Vec3::new(0.0, 0.0, -5.0), 1.0), red);
+        scene.add_light(PointLight::new(Vec3::new(5.0, 5.0, 0.0), Color::ONE));
+        scene
+    }
+
+    #[test]
+    fn a_cancelled_render_returns_nothing() {
+        let scene = scene();
+        let r = Renderer::new(&scene).unwrap();
+        assert!(r.render_cancellable(&AtomicBool::new(true)).is_none());
+        let out = r.render_cancellable(&AtomicBool::new(false)).unwrap();
+        assert_eq!(out.image, r.render());
+    }
+
+    #[test]
+    fn a_camera_override_matches_the_scene_with_that_camera() {
+        let mut moved = scene();
+        moved.camera.position = Vec3::new(1.0, 0.5, 0.0);
+        let base = scene();
+        let via_override = Renderer::new(&base).unwrap().camera(moved.camera).unwrap().render();
+        assert_eq!(via_override, Renderer::new(&moved).unwrap().render());
+        assert_ne!(via_override, Renderer::new(&base).unwrap().render());
+        let mut bad = moved.camera;
+        bad.look_at = bad.position;
+        assert!(Renderer::new(&base).unwrap().camera(bad).is_err());
     }
 }

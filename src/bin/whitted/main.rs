@@ -25,6 +25,9 @@ enum Command {
     Render(RenderArgs),
     /// Measure ray rates, build time and memory on built-in scenes and meshes.
     Bench(BenchArgs),
+    /// Show a scene in a window, refined progressively and reloaded when its file
+    /// changes. Keys: h lists them.
+    View(ViewArgs),
 }
 
 #[derive(clap::Args)]
@@ -49,6 +52,23 @@ struct BenchArgs {
     /// One JSON object per line instead of a table.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(clap::Args)]
+struct ViewArgs {
+    /// Scene file (TOML), reloaded when it or a file it names changes. Without one, the
+    /// built-in seed room (give scenes/room.toml to edit it live).
+    scene: Option<PathBuf>,
+    /// Window width in pixels (default: the scene camera's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION), requires = "height")]
+    width: Option<u32>,
+    /// Window height in pixels (default: the scene camera's).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION), requires = "width")]
+    height: Option<u32>,
+    /// Print to stderr when each pass reaches the screen and when full quality does
+    /// (also on with WHITTED_TIMING=1).
+    #[arg(long)]
+    timing: bool,
 }
 
 #[derive(clap::Args)]
@@ -105,6 +125,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Bench(args) => bench(args),
+        Command::View(args) => view(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -129,6 +150,15 @@ fn load_scene(path: Option<&Path>) -> Result<(Scene, String), String> {
             Ok((scene, "room".to_owned()))
         }
     }
+}
+
+fn view(args: ViewArgs) -> Result<(), String> {
+    whitted::viewer::window::run(whitted::viewer::Options {
+        scene: args.scene,
+        size: args.width.zip(args.height),
+        timing: args.timing || std::env::var_os("WHITTED_TIMING").is_some_and(|v| v == "1"),
+        screenshot_dir: PathBuf::from("."),
+    })
 }
 
 fn render(args: RenderArgs) -> Result<(), String> {
