@@ -46,9 +46,11 @@ pub const MAX_DEPTH: usize = 64;
 /// Largest leaf the SAH may choose to keep rather than split.
 const MAX_LEAF: usize = 8;
 const BINS: usize = 16;
-/// SAH costs relative to one primitive test. A box test of a pair of children is
-/// cheaper than most primitive tests, but not free.
-const TRAVERSAL_COST: f32 = 1.0;
+/// SAH cost of visiting a node, relative to one primitive test. Higher than the
+/// textbook 1: it makes leaves of a few primitives, which keeps the tree small (51
+/// against 76 bytes per triangle with cost 1 on the 1M-triangle cube-sphere) and builds
+/// faster, at no measured cost in ray rate.
+const TRAVERSAL_COST: f32 = 4.0;
 /// Subtrees smaller than this are built on the current thread.
 const PARALLEL_MIN: usize = 8192;
 
