@@ -90,11 +90,17 @@ impl Bvh {
     /// Builds a tree over primitives given by their boxes. Deterministic: the same boxes
     /// give the same tree whatever the thread count.
     pub fn build(bounds: &[Aabb]) -> Bvh {
+        Bvh::build_packed(bounds, 1)
+    }
+
+    /// Like [`Bvh::build`] for primitives that leaves will test `pack` at a time: the
+    /// SAH costs a leaf by its number of packs, so leaves tend to fill them.
+    pub fn build_packed(bounds: &[Aabb], pack: usize) -> Bvh {
         let mut indices: Vec<u32> = (0..bounds.len() as u32).collect();
         if bounds.is_empty() {
             return Bvh { nodes: vec![Node { min: [0.0; 3], first: 0, max: [0.0; 3], count: 0 }], indices };
         }
-        let b = Builder::new(bounds);
+        let b = Builder::new(bounds, pack);
         let root = b.range(&indices);
         let nodes = b.subtree(&mut indices, root, 0, 0);
         Bvh { nodes, indices }
@@ -219,6 +225,8 @@ impl Box3 {
 struct Builder {
     bounds: Vec<Box3>,
     centroids: Vec<Vec3A>,
+    /// Primitives a leaf tests at once.
+    pack: usize,
 }
 
 /// What the builder knows of a range of primitives before deciding how to split it.
@@ -240,10 +248,16 @@ struct Split {
 }
 
 impl Builder {
-    fn new(bounds: &[Aabb]) -> Builder {
+    /// SAH cost of testing `n` primitives in a leaf.
+    #[inline]
+    fn leaf_cost(&self, n: usize) -> f32 {
+        n.div_ceil(self.pack) as f32
+    }
+
+    fn new(bounds: &[Aabb], pack: usize) -> Builder {
         let bounds: Vec<Box3> = bounds.iter().map(|b| Box3 { min: b.min.into(), max: b.max.into() }).collect();
         let centroids = bounds.iter().map(|b| 0.5 * (b.min + b.max)).collect();
-        Builder { bounds, centroids }
+        Builder { bounds, centroids, pack: pack.max(1) }
     }
 
     fn range(&self, idx: &[u32]) -> Range {
@@ -322,7 +336,7 @@ impl Builder {
         }
         let split = self.best_split(idx, r);
         let mid = match &split {
-            Some(s) if s.cost < n as f32 || n > MAX_LEAF => {
+            Some(s) if s.cost < self.leaf_cost(n) || n > MAX_LEAF => {
                 let (lo, axis) = (r.centroids.min[s.axis], s.axis);
                 let k = BINS as f32 / (r.centroids.max[axis] - lo);
                 let bin_of = |i: u32| (((self.centroids[i as usize][axis] - lo) * k) as usize).min(BINS - 1);

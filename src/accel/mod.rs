@@ -9,15 +9,17 @@
 //! identical images.
 
 pub mod bvh;
+mod tri4;
 pub mod wide;
 
 pub use bvh::{Bvh, Node, Visit};
 pub use wide::Bvh4;
 
-use crate::geometry::{Hit, Mesh, Shape, intersect_triangle, part};
-use crate::math::{Ray, Vec2, Vec3};
+use crate::geometry::{Hit, Mesh, Shape, part};
+use crate::math::{Ray, Vec2};
 use crate::scene::Scene;
 use std::time::{Duration, Instant};
+use tri4::{Ray4, Tri4};
 
 /// Which acceleration structure answers ray queries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -41,56 +43,60 @@ impl AccelKind {
     }
 }
 
-/// A triangle laid out for the intersection test: corner, two edges, and its index in
-/// the mesh (40 bytes).
-#[derive(Clone, Copy, Debug)]
-struct PackedTriangle {
-    v0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
-    id: u32,
-}
-
-/// A mesh's own BVH, with its triangles in leaf order.
+/// A mesh's own BVH, with its triangles copied in leaf order into packs of four; a
+/// wide-tree leaf names a run of packs.
 #[derive(Debug)]
 struct MeshBvh {
     tree: Bvh4,
-    triangles: Vec<PackedTriangle>,
+    packs: Vec<Tri4>,
 }
 
 impl MeshBvh {
     fn build(mesh: &Mesh) -> MeshBvh {
         let bounds: Vec<_> =
             (0..mesh.triangle_count()).map(|i| crate::math::Aabb::from_points(mesh.corners(i))).collect();
-        let bvh = Bvh::build(&bounds);
-        let triangles = bvh
-            .indices
-            .iter()
-            .map(|&id| {
-                let [v0, v1, v2] = mesh.corners(id as usize);
-                PackedTriangle { v0, e1: v1 - v0, e2: v2 - v0, id }
-            })
-            .collect();
-        MeshBvh { tree: Bvh4::from_binary(&bvh), triangles }
+        let bvh = Bvh::build_packed(&bounds, 4);
+        let mut tree = Bvh4::from_binary(&bvh);
+        let mut packs = Vec::with_capacity(mesh.triangle_count() / 3);
+        let mut chunk = Vec::with_capacity(4);
+        tree.map_leaves(|first, count| {
+            let start = packs.len() as u32;
+            for ids in bvh.indices[first as usize..(first + count) as usize].chunks(4) {
+                chunk.clear();
+                chunk.extend(ids.iter().map(|&id| {
+                    let [v0, v1, v2] = mesh.corners(id as usize);
+                    (v0, v1 - v0, v2 - v0, id)
+                }));
+                packs.push(Tri4::pack(&chunk));
+            }
+            (start, packs.len() as u32 - start)
+        });
+        packs.shrink_to_fit();
+        MeshBvh { tree, packs }
     }
 
     fn memory_bytes(&self) -> usize {
-        self.tree.memory_bytes() + self.triangles.capacity() * std::mem::size_of::<PackedTriangle>()
+        self.tree.memory_bytes() + self.packs.capacity() * std::mem::size_of::<Tri4>()
     }
 
     #[inline]
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        let r4 = Ray4::new(ray);
         let mut best: Option<Hit> = None;
         self.tree.traverse(ray, t_min, t_max, |range, mut t_cur| {
-            for tri in &self.triangles[range] {
+            for pack in &self.packs[range] {
                 // Once something is hit the bound is inclusive, so an equally distant
                 // triangle with a lower id wins, as when every triangle is tested in order.
                 let limit = if best.is_some() { t_cur.next_up() } else { t_cur };
-                if let Some((t, b1, b2)) = intersect_triangle(tri.v0, tri.e1, tri.e2, ray, t_min, limit)
-                    && best.as_ref().is_none_or(|b| t < b.t || tri.id < b.prim)
-                {
-                    t_cur = t;
-                    best = Some(Hit { t, uv: Vec2::new(b1, b2), part: part::SIDE, prim: tri.id });
+                let (mut mask, t, b1, b2) = pack.intersect(&r4, t_min, limit);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let id = pack.ids[lane];
+                    if best.as_ref().is_none_or(|b| t[lane] < b.t || (t[lane] == b.t && id < b.prim)) {
+                        t_cur = t[lane];
+                        best = Some(Hit { t: t[lane], uv: Vec2::new(b1[lane], b2[lane]), part: part::SIDE, prim: id });
+                    }
                 }
             }
             Visit::Continue(t_cur)
@@ -100,12 +106,10 @@ impl MeshBvh {
 
     #[inline]
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        let r4 = Ray4::new(ray);
         let mut hit = false;
         self.tree.traverse(ray, t_min, t_max, |range, t_cur| {
-            let blocked = self.triangles[range]
-                .iter()
-                .any(|tri| intersect_triangle(tri.v0, tri.e1, tri.e2, ray, t_min, t_max).is_some());
-            if blocked {
+            if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
                 hit = true;
                 Visit::Stop
             } else {
@@ -281,6 +285,7 @@ mod tests {
     use crate::geometry::{Cone, Cylinder, Polygon, Quad, Sphere, Triangle};
     use crate::material::Material;
     use crate::math::Color;
+    use crate::math::Vec3;
     use crate::sampler::Rng;
 
     fn v(r: &mut Rng, scale: f32) -> Vec3 {

@@ -93,6 +93,18 @@ impl Bvh4 {
         }
     }
 
+    /// Rewrites every leaf's (first, count), in node order: lets a user re-lay out the
+    /// primitives (triangles into packs of four) after the tree is built.
+    pub fn map_leaves(&mut self, mut f: impl FnMut(u32, u32) -> (u32, u32)) {
+        for n in &mut self.nodes {
+            for lane in 0..4 {
+                if n.count[lane] > 0 {
+                    (n.child[lane], n.count[lane]) = f(n.child[lane], n.count[lane]);
+                }
+            }
+        }
+    }
+
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node4>()
     }
