@@ -50,7 +50,10 @@ const BINS: usize = 16;
 /// textbook 1: it makes leaves of a few primitives, which keeps the tree small (51
 /// against 76 bytes per triangle with cost 1 on the 1M-triangle cube-sphere) and builds
 /// faster, at no measured cost in ray rate.
-const TRAVERSAL_COST: f32 = 4.0;
+const MESH_TRAVERSAL_COST: f32 = 4.0;
+/// Scene objects (quads, cylinders, cones) each cost several box tests, and a room's
+/// walls have flat boxes that ordered traversal culls well: small leaves pay there.
+const OBJECT_TRAVERSAL_COST: f32 = 0.5;
 /// Subtrees smaller than this are built on the current thread.
 const PARALLEL_MIN: usize = 8192;
 
@@ -227,6 +230,7 @@ struct Builder {
     centroids: Vec<Vec3A>,
     /// Primitives a leaf tests at once.
     pack: usize,
+    traversal_cost: f32,
 }
 
 /// What the builder knows of a range of primitives before deciding how to split it.
@@ -257,7 +261,8 @@ impl Builder {
     fn new(bounds: &[Aabb], pack: usize) -> Builder {
         let bounds: Vec<Box3> = bounds.iter().map(|b| Box3 { min: b.min.into(), max: b.max.into() }).collect();
         let centroids = bounds.iter().map(|b| 0.5 * (b.min + b.max)).collect();
-        Builder { bounds, centroids, pack: pack.max(1) }
+        let traversal_cost = if pack > 1 { MESH_TRAVERSAL_COST } else { OBJECT_TRAVERSAL_COST };
+        Builder { bounds, centroids, pack: pack.max(1), traversal_cost }
     }
 
     fn range(&self, idx: &[u32]) -> Range {
@@ -410,7 +415,7 @@ impl Builder {
                 if cnt == 0 || right_count[b] == 0 {
                     continue;
                 }
-                let cost = TRAVERSAL_COST
+                let cost = self.traversal_cost
                     + (acc.area() * cnt as f32 + right_box[b].area() * right_count[b] as f32) / parent_area;
                 if best.as_ref().is_none_or(|s| cost < s.cost) {
                     best = Some(Split { axis, bin: b, cost, left: acc, right: right_box[b], left_count: cnt as usize });

@@ -120,15 +120,31 @@ impl MeshBvh {
     }
 }
 
+/// An object as the top-level tree's leaves see it. Spheres, the commonest object in
+/// big scenes, are copied here in leaf order, so testing a leaf reads one run of memory
+/// instead of reaching into the scene's object list for each.
+#[derive(Clone, Copy, Debug)]
+enum LeafObject {
+    Sphere(crate::geometry::Sphere, u32),
+    Other(u32),
+}
+
+impl LeafObject {
+    fn index(&self) -> u32 {
+        match *self {
+            LeafObject::Sphere(_, i) | LeafObject::Other(i) => i,
+        }
+    }
+}
+
 /// The read-only ray-query structure shared by all render threads.
 #[derive(Debug)]
 pub struct World<'s> {
     scene: &'s Scene,
     kind: AccelKind,
-    /// Over objects; empty with `AccelKind::None`. The wide tree is traversed; the
-    /// binary one's index list maps leaf positions to objects.
-    top: Bvh,
+    /// Over objects; empty with `AccelKind::None`. Leaf positions index `leaves`.
     top4: Bvh4,
+    leaves: Vec<LeafObject>,
     /// Per object: the BVH of a mesh object (with `AccelKind::Bvh`).
     meshes: Vec<Option<MeshBvh>>,
     /// Per object, the share of light its material lets through (0 = opaque), looked
@@ -158,7 +174,15 @@ impl<'s> World<'s> {
             }
         };
         let top4 = if top.nodes.is_empty() { Bvh4::default() } else { Bvh4::from_binary(&top) };
-        World { scene, kind, top, top4, meshes, transmission, build_time: start.elapsed() }
+        let leaves = top
+            .indices
+            .iter()
+            .map(|&i| match &scene.objects[i as usize].shape {
+                Shape::Sphere(s) => LeafObject::Sphere(*s, i),
+                _ => LeafObject::Other(i),
+            })
+            .collect();
+        World { scene, kind, top4, leaves, meshes, transmission, build_time: start.elapsed() }
     }
 
     pub fn scene(&self) -> &'s Scene {
@@ -176,7 +200,7 @@ impl<'s> World<'s> {
 
     /// Bytes held by the acceleration structures (not the scene's own geometry).
     pub fn memory_bytes(&self) -> usize {
-        self.top.indices.capacity() * 4
+        self.leaves.capacity() * std::mem::size_of::<LeafObject>()
             + self.top4.memory_bytes()
             + self.meshes.iter().flatten().map(MeshBvh::memory_bytes).sum::<usize>()
     }
@@ -184,9 +208,9 @@ impl<'s> World<'s> {
     /// Objects whose boxes the ray enters, nearest first; `test(object, t_max)` as in
     /// [`Bvh::traverse`].
     #[inline]
-    fn traverse_objects(&self, ray: &Ray, t_min: f32, t_max: f32, mut test: impl FnMut(u32, f32) -> Visit) {
+    fn traverse_objects(&self, ray: &Ray, t_min: f32, t_max: f32, mut test: impl FnMut(&LeafObject, f32) -> Visit) {
         self.top4.traverse(ray, t_min, t_max, |range, mut t_cur| {
-            for &i in &self.top.indices[range] {
+            for i in &self.leaves[range] {
                 match test(i, t_cur) {
                     Visit::Continue(t) => t_cur = t,
                     Visit::Stop => return Visit::Stop,
@@ -194,6 +218,14 @@ impl<'s> World<'s> {
             }
             Visit::Continue(t_cur)
         })
+    }
+
+    #[inline]
+    fn intersect_leaf(&self, leaf: &LeafObject, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        match leaf {
+            LeafObject::Sphere(s, _) => s.intersect(ray, t_min, t_max),
+            LeafObject::Other(i) => self.intersect_object(*i as usize, ray, t_min, t_max),
+        }
     }
 
     #[inline]
@@ -227,11 +259,12 @@ impl<'s> World<'s> {
                     }
                 }
             }
-            AccelKind::Bvh => self.traverse_objects(ray, t_min, t_max, |i, t_cur| {
+            AccelKind::Bvh => self.traverse_objects(ray, t_min, t_max, |leaf, t_cur| {
                 // Once something is hit the bound is inclusive, so an object at exactly
                 // the same distance with a lower index wins, as in the brute-force loop.
                 let limit = if best.is_some() { t_cur.next_up() } else { t_cur };
-                match self.intersect_object(i as usize, ray, t_min, limit) {
+                let i = leaf.index();
+                match self.intersect_leaf(leaf, ray, t_min, limit) {
                     Some(h) if best.as_ref().is_none_or(|(b, bi)| h.t < b.t || i < *bi) => {
                         let t = h.t;
                         best = Some((h, i));
@@ -263,8 +296,13 @@ impl<'s> World<'s> {
                     }
                 }
             }
-            AccelKind::Bvh => self.traverse_objects(ray, 0.0, t_max, |i, _| {
-                if self.blocks(i as usize, ray, t_max) {
+            AccelKind::Bvh => self.traverse_objects(ray, 0.0, t_max, |leaf, _| {
+                let i = leaf.index();
+                let blocked = match leaf {
+                    LeafObject::Sphere(s, _) => s.intersect(ray, 0.0, t_max).is_some(),
+                    LeafObject::Other(_) => self.blocks(i as usize, ray, t_max),
+                };
+                if blocked {
                     light *= self.transmission[i as usize] as f64;
                     if light == 0.0 {
                         return Visit::Stop;
