@@ -118,3 +118,18 @@ fn room_matches_reference_image() {
         );
     }
 }
+
+/// The BVH must pick the same object as testing every object, even where a ray meets
+/// two objects at once: the room's diagonal pixels look exactly into the corners where
+/// walls meet the ceiling and floor.
+#[test]
+fn room_is_identical_with_and_without_bvh() {
+    use whitted::accel::AccelKind;
+    let scene = room();
+    let bvh = Renderer::new(&scene).unwrap().size(400, 400).accel(AccelKind::Bvh).render();
+    let none = Renderer::new(&scene).unwrap().size(400, 400).accel(AccelKind::None).render();
+    let differing =
+        (0..400).flat_map(|y| (0..400).map(move |x| (x, y))).filter(|&(x, y)| bvh.pixel(x, y) != none.pixel(x, y));
+    let first: Vec<_> = differing.take(5).collect();
+    assert!(first.is_empty(), "pixels differ, e.g. {first:?}");
+}

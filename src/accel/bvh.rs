@@ -84,7 +84,7 @@ impl RayBox {
         let t1 = (Vec3A::from_array(n.min) - self.origin) * self.inv_dir;
         let t2 = (Vec3A::from_array(n.max) - self.origin) * self.inv_dir;
         let near = t1.min(t2).max_element().max(t_min);
-        let far = t1.max(t2).min_element().min(t_max);
+        let far = t1.max(t2).min_element().min(t_max) * (1.0 + 8.0 * f32::EPSILON);
         (near <= far).then_some(near)
     }
 }

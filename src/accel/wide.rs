@@ -147,7 +147,7 @@ impl Bvh4 {
         while sp > 0 {
             sp -= 1;
             let (index, count, t_enter) = stack[sp];
-            if t_enter > *t_max {
+            if t_enter > *t_max * ROBUST {
                 continue;
             }
             if count > 0 {
@@ -193,6 +193,13 @@ impl Bvh4 {
         true
     }
 }
+
+/// Slack on box exit distances. The slab arithmetic rounds, and a ray through the
+/// line where two flat boxes meet (a room's wall and ceiling) could otherwise miss a box
+/// whose primitive it hits, or cull the box of an equally distant one: the BVH would
+/// then pick a different object than testing everything does. A few ulps (relative)
+/// cover the error (pbrt multiplies by 1 + 2γ₃ for the same reason).
+const ROBUST: f32 = 1.0 + 8.0 * f32::EPSILON;
 
 /// Traversal stack entries: enough for trees about twenty wide levels deep before a
 /// nested call takes over.
@@ -265,7 +272,7 @@ impl WideRay {
         let (ny, fy) = axis(n.min_y, n.max_y, 1);
         let (nz, fz) = axis(n.min_z, n.max_z, 2);
         let near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
-        let far = fx.min(fy).min(fz.min(Vec4::splat(t_max)));
+        let far = fx.min(fy).min(fz.min(Vec4::splat(t_max))) * Vec4::splat(ROBUST);
         (near, near.cmple(far).bitmask())
     }
 }
