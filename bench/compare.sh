@@ -1,0 +1,71 @@
+#!/usr/bin/env bash
+# Measures Whitted against POV-Ray 3.7 (the seed room) and Intel Embree (the 1M-triangle
+# displaced cube-sphere, same rays) one after the other on this machine, prints the
+# ratios that issue 7 tracks, and appends the figures as JSON lines to
+# bench/results/DATE.jsonl. Installs povray and libembree-dev from Debian if missing.
+# Usage: bench/compare.sh [THREADS]   (default 2)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+threads="${1:-2}"
+tools=../shared/tools
+cpu="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
+date="$(date -u +%Y-%m-%dT%H:%M:%SZ)"
+out="bench/results/$(date -u +%Y-%m-%d).jsonl"
+mkdir -p target bench/results
+
+cargo build --release -q
+[ -x target/embree_bench ] || bash "$tools/embree-bench/build.sh" target/embree_bench >/dev/null
+
+best() { sort -g | head -1; }
+render_time() { # spp -> best of 3 render times in seconds
+    for _ in 1 2 3; do
+        ./target/release/whitted render --threads "$threads" --spp "$1" --stats -q -o target/compare-room.png |
+            sed -n 's/^render time *\([0-9.]*\) s/\1/p'
+    done | best
+}
+pov_time() { # mode -> best of 3 POV-Ray trace times
+    for _ in 1 2 3; do
+        bash "$tools/povray-room/run.sh" "$1" "$threads" target/povray-room.png | sed -E 's/.*trace_s=([0-9.]+).*/\1/'
+    done | best
+}
+
+echo "CPU: $cpu; $threads threads; $(uptime | sed 's/.*load/load/')"
+w1=$(render_time 1); p1=$(pov_time noaa)
+w4=$(render_time 4); p5=$(pov_time aa)
+./target/embree_bench --gen-cubesphere 289 --name cubesphere-1M --quality high --runs 5 --no-packets > target/embree-1M.txt
+./target/release/whitted bench --scene cubesphere-1M --threads "$threads" --runs 5 --json > target/whitted-1M.jsonl
+
+python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" <<'PY'
+import json, re, sys
+w1, p1, w4, p5 = map(float, sys.argv[1:5])
+cpu, date, threads, out = sys.argv[5], sys.argv[6], int(sys.argv[7]), sys.argv[8]
+emb = {}
+for line in open("target/embree-1M.txt"):
+    if not line.startswith("RESULT"):
+        continue
+    f = dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
+    if f["case"] == "build":
+        emb["build_s"] = float(f["best_s"]); emb["bytes"] = float(f["persistent_B_per_prim"])
+    elif int(f.get("threads", 0)) == threads:
+        emb[f["case"]] = float(f["Mrays_per_cpu_s"])
+w = json.loads(open("target/whitted-1M.jsonl").readline())
+rows = [
+    ("room 1 spp: Whitted render / POV-Ray trace (target <= 0.1)", w1 / p1, f"{w1:.3f} s / {p1:.3f} s"),
+    ("room AA: Whitted 4 spp / POV-Ray 5 rays (target <= 0.1)", w4 / p5, f"{w4:.3f} s / {p5:.3f} s"),
+    ("primary Mrays/CPU-s vs rtcIntersect1 (target >= 1.0)", w["primary_mrays_per_cpu_s"] / emb["primary_rtcIntersect1"],
+     f'{w["primary_mrays_per_cpu_s"]:.2f} / {emb["primary_rtcIntersect1"]:.2f}'),
+    ("shadow Mrays/CPU-s vs rtcOccluded1 (target >= 1.0)", w["shadow_mrays_per_cpu_s"] / emb["shadow_rtcOccluded1"],
+     f'{w["shadow_mrays_per_cpu_s"]:.2f} / {emb["shadow_rtcOccluded1"]:.2f}'),
+    ("incoherent Mrays/CPU-s vs rtcIntersect1 (target >= 0.7)", w["incoherent_mrays_per_cpu_s"] / emb["incoherent_rtcIntersect1"],
+     f'{w["incoherent_mrays_per_cpu_s"]:.2f} / {emb["incoherent_rtcIntersect1"]:.2f}'),
+    ("BVH build time vs Embree high quality (target <= 1.5)", w["build_ms"] / 1000 / emb["build_s"], f'{w["build_ms"]/1000:.3f} s / {emb["build_s"]:.3f} s'),
+    ("acceleration bytes per triangle (target <= 64)", w["bytes_per_primitive"], f'Embree {emb["bytes"]:.1f}'),
+]
+for name, ratio, detail in rows:
+    print(f"{name:<62} {ratio:8.3f}   ({detail})")
+with open(out, "a") as f:
+    record = {"date": date, "cpu": cpu, "threads": threads, "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
+              "povray_aa_s": p5, "embree": emb, "whitted": w, "ratios": {n: r for n, r, _ in rows}}
+    f.write(json.dumps(record) + "\n")
+print(f"appended to {out}")
+PY
