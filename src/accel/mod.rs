@@ -108,7 +108,7 @@ impl MeshBvh {
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let r4 = Ray4::new(ray);
         let mut hit = false;
-        self.tree.traverse(ray, t_min, t_max, |range, t_cur| {
+        self.tree.traverse_any(ray, t_min, t_max, |range, t_cur| {
             if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
                 hit = true;
                 Visit::Stop

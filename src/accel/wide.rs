@@ -126,13 +126,29 @@ impl Bvh4 {
     ) {
         let r = WideRay::new(ray);
         let mut t_max = t_max;
-        self.walk(&r, (0, 0, t_min), t_min, &mut t_max, &mut leaf);
+        self.walk::<true>(&r, (0, 0, t_min), t_min, &mut t_max, &mut leaf);
+    }
+
+    /// Like [`Bvh4::traverse`] for queries that need any hit, not the nearest (shadow
+    /// rays): children are visited in node order, which saves sorting them. Most shadow
+    /// rays are not blocked and must visit every box they cross anyway.
+    #[inline]
+    pub fn traverse_any(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
+    ) {
+        let r = WideRay::new(ray);
+        let mut t_max = t_max;
+        self.walk::<false>(&r, (0, 0, t_min), t_min, &mut t_max, &mut leaf);
     }
 
     /// Traverses from one stack entry; returns `false` when the closure said stop. The
     /// stack is small so that setting it up costs little per ray; a tree deep enough to
     /// fill it continues in a nested call.
-    fn walk(
+    fn walk<const ORDERED: bool>(
         &self,
         r: &WideRay,
         start: (u32, u32, f32),
@@ -163,6 +179,23 @@ impl Bvh4 {
             if hit == 0 {
                 continue;
             }
+            if !ORDERED {
+                let mut mask = hit;
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    let entry = (n.child[lane], n.count[lane], near[lane]);
+                    if sp == STACK {
+                        if !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf) {
+                            return false;
+                        }
+                    } else {
+                        stack[sp] = entry;
+                        sp += 1;
+                    }
+                }
+                continue;
+            }
             // Push the entered children farthest first, so the nearest is popped next.
             let mut order = [(0f32, 0usize); 4];
             let mut k = 0;
@@ -181,7 +214,7 @@ impl Bvh4 {
             for &(d, lane) in &order[..k] {
                 let entry = (n.child[lane], n.count[lane], d);
                 if sp == STACK {
-                    if !self.walk(r, entry, t_min, t_max, leaf) {
+                    if !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf) {
                         return false;
                     }
                 } else {
