@@ -439,10 +439,11 @@ fn partition_in_place(v: &mut [u32], left: impl Fn(&u32) -> bool) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn boxes(n: usize, seed: u64) -> Vec<Aabb> {
+    /// `n` random boxes in a 100-unit cube.
+    pub(crate) fn boxes(n: usize, seed: u64) -> Vec<Aabb> {
         let mut s = seed;
         let mut r = || {
             s ^= s << 13;

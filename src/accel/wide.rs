@@ -316,20 +316,7 @@ mod tests {
     use crate::math::Aabb;
 
     fn boxes(n: usize) -> Vec<Aabb> {
-        let mut s = 0x9e3779b97f4a7c15u64;
-        let mut r = || {
-            s ^= s << 13;
-            s ^= s >> 7;
-            s ^= s << 17;
-            (s >> 40) as f32 / (1u64 << 24) as f32
-        };
-        (0..n)
-            .map(|_| {
-                let c = Vec3::new(r(), r(), r()) * 50.0;
-                let e = Vec3::new(r(), r(), r()) + Vec3::splat(0.05);
-                Aabb { min: c - e, max: c + e }
-            })
-            .collect()
+        crate::accel::bvh::tests::boxes(n, 0x9e3779b97f4a7c15)
     }
 
     /// The leaves a wide traversal reaches are those the binary tree reaches.

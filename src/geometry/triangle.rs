@@ -27,21 +27,7 @@ impl Triangle {
         if !transversal {
             return None;
         }
-        let inv = 1.0 / det;
-        let s = ray.origin - self.v0;
-        let b1 = s.dot(p) * inv;
-        if !(0.0..=1.0).contains(&b1) {
-            return None;
-        }
-        let q = s.cross(e1);
-        let b2 = ray.dir.dot(q) * inv;
-        if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
-            return None;
-        }
-        let t = e2.dot(q) * inv;
-        if !(t > t_min && t < t_max) {
-            return None;
-        }
+        let (t, b1, b2) = super::intersect_triangle(self.v0, e1, e2, ray, t_min, t_max)?;
         Some(Hit { prim: 0, t, uv: Vec2::new(b1, b2), part: part::SIDE })
     }
 
