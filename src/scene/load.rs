@@ -197,8 +197,12 @@ struct ConeDesc {
     base: S<V3>,
     axis: S<V3>,
     radius: S<f32>,
+    /// Radius at the top: 0 (default) for a pointed cone, else a truncated one.
+    top_radius: Option<S<f32>>,
     height: S<f32>,
     cap: Option<bool>,
+    /// Close the top (default true; only for `top_radius` > 0).
+    top_cap: Option<S<bool>>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
 }
@@ -429,12 +433,21 @@ impl Ctx<'_> {
         }
         for c in &desc.cone {
             let c = c.get_ref();
-            let shape = Cone::new(
+            let top_radius = c.top_radius.as_ref().map_or(Ok(0.0), |r| self.non_negative(r, "top_radius"))?;
+            if let Some(top_cap) = &c.top_cap
+                && *top_cap.get_ref()
+                && top_radius == 0.0
+            {
+                return Err(self.err(top_cap, "top_cap", "a pointed cone (top_radius 0) has no top to close"));
+            }
+            let shape = Cone::truncated(
                 self.vec3(&c.base, "base")?,
                 self.direction(&c.axis, "axis")?,
                 self.positive(&c.radius, "radius")?,
+                top_radius,
                 self.positive(&c.height, "height")?,
                 c.cap.unwrap_or(true),
+                top_radius > 0.0 && c.top_cap.as_ref().is_none_or(|t| *t.get_ref()),
             );
             place(&mut scene, shape.into(), &c.material, &c.transform)?;
         }
