@@ -1,5 +1,5 @@
 use super::{Hit, Nearest, Surface, disc_bounds, part, turn_fraction};
-use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis};
+use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis, unit_or};
 
 /// Finite right circular cone: a disc of `radius` at `base`, changing linearly to a disc
 /// of `top_radius` at `base + axis * height`. With `top_radius` 0 (the default of
@@ -20,7 +20,7 @@ use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cone {
     pub base: Vec3,
-    /// Unit length (normalised by [`Cone::new`]).
+    /// Unit length (normalised by [`Cone::new`], see [`unit_or`]).
     pub axis: Vec3,
     /// Radius at the base.
     pub radius: f32,
@@ -51,7 +51,7 @@ impl Cone {
         cap: bool,
         top_cap: bool,
     ) -> Self {
-        Cone { base, axis: axis.normalize_or(Vec3::Y), radius, top_radius, height, cap, top_cap }
+        Cone { base, axis: unit_or(axis, Vec3::Y), radius, top_radius, height, cap, top_cap }
     }
 
     /// The centre of the top end: the apex of a pointed cone.

@@ -714,7 +714,7 @@ impl Ctx<'_> {
             "stripes" => {
                 required(t.axis.is_some(), "axis")?;
                 required(t.width.is_some(), "width")?;
-                let axis = self.direction(t.axis.as_ref().expect("checked"), "axis")?.normalize();
+                let axis = crate::math::unit_or(self.direction(t.axis.as_ref().expect("checked"), "axis")?, Vec3::Y);
                 let width = self.positive(t.width.as_ref().expect("checked"), "width")?;
                 Ok(Texture::Stripes { axis, width, colors: colors()? })
             }
