@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use whitted::accel::AccelKind;
 use whitted::film::PendingOutput;
 use whitted::render::Renderer;
-use whitted::scene::{self, MAX_RESOLUTION, Scene};
+use whitted::scene::{self, Loaded, MAX_RESOLUTION};
 
 #[derive(Parser)]
 #[command(name = "whitted", version, about = "A fast recursive (Whitted-style) ray tracer")]
@@ -53,8 +53,12 @@ struct BenchArgs {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (TOML). Without one, the built-in seed room (scenes/room.toml).
+    /// Scene file: TOML, or NFF (by its .nff extension, or --format). Without one, the
+    /// built-in seed room (scenes/room.toml).
     scene: Option<PathBuf>,
+    /// Scene format, instead of guessing from the extension.
+    #[arg(long, value_enum)]
+    format: Option<Format>,
     /// Output PNG; by default the scene's name with .png, in the current folder.
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -83,6 +87,23 @@ struct RenderArgs {
     /// No progress bar and no warnings.
     #[arg(short, long)]
     quiet: bool,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Format {
+    Toml,
+    Nff,
+}
+
+impl Format {
+    /// The format asked for, or the one the file's extension names.
+    fn resolve(asked: Option<Format>, path: &Path) -> scene::Format {
+        match asked {
+            Some(Format::Toml) => scene::Format::Toml,
+            Some(Format::Nff) => scene::Format::Nff,
+            None => scene::Format::of_path(path),
+        }
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -115,28 +136,30 @@ fn main() -> ExitCode {
     }
 }
 
-/// Loads the scene named on the command line, or the built-in one.
-fn load_scene(path: Option<&Path>) -> Result<(Scene, String), String> {
+/// Loads the scene named on the command line, or the built-in one; also gives the name
+/// for the default output file.
+fn load_scene(path: Option<&Path>, format: Option<Format>) -> Result<(Loaded, String), String> {
     match path {
         Some(p) => {
-            let scene = scene::load_file(p).map_err(|e| e.to_string())?;
+            let loaded = scene::load_path(p, Format::resolve(format, p)).map_err(|e| e.to_string())?;
             let stem = p.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned());
-            Ok((scene, stem))
+            Ok((loaded, stem))
         }
         None => {
             let scene = scene::load_str(scene::DEFAULT_SCENE, scene::DEFAULT_SCENE_NAME, Path::new("scenes"))
                 .map_err(|e| e.to_string())?;
-            Ok((scene, "room".to_owned()))
+            Ok((Loaded { scene, warnings: Vec::new(), nff: None }, "room".to_owned()))
         }
     }
 }
 
 fn render(args: RenderArgs) -> Result<(), String> {
     let load_start = Instant::now();
-    let (scene, stem) = load_scene(args.scene.as_deref())?;
+    let (loaded, stem) = load_scene(args.scene.as_deref(), args.format)?;
     let load_time = load_start.elapsed();
+    let scene = &loaded.scene;
     if !args.quiet {
-        for w in scene.warnings() {
+        for w in loaded.warnings.iter().chain(&scene.warnings()) {
             eprintln!("warning: {w}");
         }
     }
@@ -144,7 +167,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
     // Claim the output before rendering, so a bad path fails in milliseconds, not after.
     let pending = PendingOutput::create(&output).map_err(|e| e.to_string())?;
 
-    let mut renderer = Renderer::new(&scene).map_err(|e| e.to_string())?;
+    let mut renderer = Renderer::new(scene).map_err(|e| e.to_string())?;
     let (w, h) = (args.width.unwrap_or(scene.camera.width), args.height.unwrap_or(scene.camera.height));
     renderer = renderer.size(w, h).accel(args.accel.into());
     if let Some(n) = args.spp {
@@ -188,6 +211,20 @@ fn render(args: RenderArgs) -> Result<(), String> {
         );
         println!("total       {} rays", s.total());
         println!("load time   {:.3} s (parse and check the scene)", load_time.as_secs_f64());
+        if let Some(n) = &loaded.nff {
+            let secs = load_time.as_secs_f64().max(1e-9);
+            println!(
+                "nff         {} lines, {:.1} MB, {:.0} MB/s: {} spheres, {} cones and cylinders, {} polygons and {} patches as {} triangles",
+                n.lines,
+                n.bytes as f64 / 1e6,
+                n.bytes as f64 / 1e6 / secs,
+                n.spheres,
+                n.cones,
+                n.polygons,
+                n.patches,
+                n.triangles
+            );
+        }
         println!(
             "build time  {:.3} s ({} acceleration structure)",
             out.build_time.as_secs_f64(),
