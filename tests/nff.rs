@@ -25,7 +25,7 @@ fn expectation(path: &Path) -> (usize, String) {
     (value("# expect-line:").parse().unwrap(), value("# expect-field:"))
 }
 
-/// Every malformed file under tests/scenes/bad_nff/ makes `render` fail:
+/// Every malformed file under tests/scenes/bad_nff/ makes `render` and `convert` fail:
 /// exit code 1, no panic, `error: FILE:LINE:COL: COMMAND: ...`, and no output file.
 #[test]
 fn every_bad_nff_fails_with_file_line_and_command() {
@@ -42,8 +42,10 @@ fn every_bad_nff_fails_with_file_line_and_command() {
         let name = path.file_name().unwrap().to_string_lossy().into_owned();
         let (line, field) = expectation(path);
         let png = tmp.path().join(format!("{name}.png"));
+        let toml = tmp.path().join(format!("{name}.toml"));
         let runs = [
             (png.clone(), whitted(&["render", path.to_str().unwrap(), "-o", png.to_str().unwrap(), "-q"])),
+            (toml.clone(), whitted(&["convert", path.to_str().unwrap(), toml.to_str().unwrap(), "-q"])),
         ];
         for (output, out) in runs {
             let stderr = String::from_utf8_lossy(&out.stderr).into_owned();

@@ -125,6 +125,11 @@ impl Mesh {
         &self.normals
     }
 
+    /// Per-vertex texture coordinates; empty when the barycentrics serve instead.
+    pub fn uvs(&self) -> &[Vec2] {
+        &self.uvs
+    }
+
     pub fn triangles(&self) -> &[[u32; 3]] {
         &self.triangles
     }

@@ -16,6 +16,7 @@ pub mod generate;
 mod load;
 pub mod nff;
 pub mod obj;
+pub mod save;
 
 pub use error::SceneError;
 pub use load::{DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_file, load_str};

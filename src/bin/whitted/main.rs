@@ -25,6 +25,22 @@ enum Command {
     Render(RenderArgs),
     /// Measure ray rates, build time and memory on built-in scenes and meshes.
     Bench(BenchArgs),
+    /// Write a scene (NFF or TOML) as the project's TOML, to edit it with the full format.
+    Convert(ConvertArgs),
+}
+
+#[derive(clap::Args)]
+struct ConvertArgs {
+    /// Scene to read: NFF (by its .nff extension, or --format) or TOML.
+    input: PathBuf,
+    /// TOML file to write (replaced whole, or left alone if anything fails).
+    output: PathBuf,
+    /// Input format, instead of guessing from the extension.
+    #[arg(long, value_enum)]
+    format: Option<Format>,
+    /// No warnings.
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 #[derive(clap::Args)]
@@ -126,6 +142,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Bench(args) => bench(args),
+        Command::Convert(args) => convert(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -234,6 +251,27 @@ fn render(args: RenderArgs) -> Result<(), String> {
         println!("speed       {:.2} Mrays/s", s.total() as f64 / secs / 1e6);
     }
     Ok(())
+}
+
+fn convert(args: ConvertArgs) -> Result<(), String> {
+    let is_toml = args.output.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if !is_toml {
+        return Err(format!(
+            "{}: only TOML output is supported (give the file a .toml extension)",
+            args.output.display()
+        ));
+    }
+    let loaded = scene::load_path(&args.input, Format::resolve(args.format, &args.input)).map_err(|e| e.to_string())?;
+    if !args.quiet {
+        for w in loaded.warnings.iter().chain(&loaded.scene.warnings()) {
+            eprintln!("warning: {w}");
+        }
+    }
+    let note = format!("Converted from {} by whitted convert.", args.input.display());
+    scene::save::save_toml(&loaded.scene, &note, &args.output).map_err(|e| match e {
+        scene::save::SaveError::Io { source, .. } => format!("{}: cannot write: {source}", args.output.display()),
+        other => format!("{}: {other}", args.input.display()),
+    })
 }
 
 fn bench(args: BenchArgs) -> Result<(), String> {
