@@ -35,7 +35,7 @@ pub fn triangulate(points: &[Vec3], base: u32, out: &mut Vec<[u32; 3]>) -> Optio
         let (a, b, c) = (points[0], points[1], points[2]);
         let extent = (b - a).length_squared().max((c - a).length_squared());
         let area2 = (b - a).cross(c - a).length_squared();
-        if !(area2 > 1e-14 * extent * extent) {
+        if area2.is_nan() || area2 <= 1e-14 * extent * extent {
             return None;
         }
         out.push([base, base + 1, base + 2]);
@@ -66,7 +66,7 @@ pub fn triangulate(points: &[Vec3], base: u32, out: &mut Vec<[u32; 3]>) -> Optio
     let extent2: f64 = (0..3).map(|k| (hi[k] - lo[k]).powi(2)).sum();
     let length = normal.iter().map(|x| x * x).sum::<f64>().sqrt();
     // Zero up to f32 rounding of the input.
-    if !(length > 1e-7 * extent2) {
+    if length.is_nan() || length <= 1e-7 * extent2 {
         return None;
     }
     // Project along the normal's largest component, mirrored if need be so that the

@@ -586,7 +586,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
         }
         let axis = apex - base;
         let height = axis.length();
-        if !(height > 0.0) || !height.is_finite() {
+        if !height.is_finite() || height <= 0.0 {
             return Err(self.at(e, "the base and apex points must differ"));
         }
         (base_r, apex_r) = (base_r.abs(), apex_r.abs());
@@ -838,7 +838,7 @@ mod tests {
         let Shape::Cone(c) = &s.objects[2].shape else { unreachable!() };
         assert_eq!((c.radius, c.top_radius), (1.0, 0.5));
         assert!(nff.warnings[0].contains("2 zero-size sphere or cone skipped"), "{:?}", nff.warnings);
-        assert!(nff.warnings.iter().any(|w| w.contains("before any `f`")) == false);
+        assert!(!nff.warnings.iter().any(|w| w.contains("before any `f`")));
     }
 
     #[test]
