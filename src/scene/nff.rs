@@ -238,7 +238,73 @@ fn show(word: &[u8]) -> String {
 }
 
 fn parse_f32(word: &[u8]) -> Option<f32> {
-    std::str::from_utf8(word).ok()?.parse().ok()
+    fast_f32(word).or_else(|| std::str::from_utf8(word).ok()?.parse().ok())
+}
+
+/// Powers of ten that are exact in f32.
+const POW10: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// Clinger's fast path: a decimal whose digits fit in 24 bits, scaled by at most 10^10
+/// either way, is one exactly represented integer times or over one exact power of
+/// ten, so a single correctly rounded f32 operation gives the same value as the full
+/// parser. Numbers written with `%g` (six digits) nearly all qualify; anything else
+/// (`None`) goes to `str::parse`.
+fn fast_f32(w: &[u8]) -> Option<f32> {
+    let (negative, mut i) = match w.first()? {
+        b'-' => (true, 1),
+        b'+' => (false, 1),
+        _ => (false, 0),
+    };
+    let (mut m, mut exp, mut digits) = (0u32, 0i32, 0);
+    let mut digit = |c: u8, m: &mut u32| -> Option<()> {
+        *m = m.checked_mul(10)?.checked_add((c - b'0') as u32)?;
+        digits += 1;
+        (*m <= 1 << 24).then_some(())
+    };
+    while i < w.len() && w[i].is_ascii_digit() {
+        digit(w[i], &mut m)?;
+        i += 1;
+    }
+    if i < w.len() && w[i] == b'.' {
+        i += 1;
+        while i < w.len() && w[i].is_ascii_digit() {
+            digit(w[i], &mut m)?;
+            exp -= 1;
+            i += 1;
+        }
+    }
+    if digits == 0 {
+        return None;
+    }
+    if i < w.len() && (w[i] == b'e' || w[i] == b'E') {
+        i += 1;
+        let sign = match w.get(i) {
+            Some(b'-') => {
+                i += 1;
+                -1
+            }
+            Some(b'+') => {
+                i += 1;
+                1
+            }
+            _ => 1,
+        };
+        let start = i;
+        let mut e = 0i32;
+        while i < w.len() && w[i].is_ascii_digit() && i - start < 4 {
+            e = e * 10 + (w[i] - b'0') as i32;
+            i += 1;
+        }
+        if i == start {
+            return None;
+        }
+        exp += sign * e;
+    }
+    if i != w.len() || !(-10..=10).contains(&exp) {
+        return None;
+    }
+    let x = if exp >= 0 { m as f32 * POW10[exp as usize] } else { m as f32 / POW10[(-exp) as usize] };
+    Some(if negative { -x } else { x })
 }
 
 /// The entity being read, for messages about its numbers.
@@ -903,6 +969,43 @@ mod tests {
         assert_eq!(l, 6, "{m}");
         let (l, c, f, m) = at("s 0 0 0 1\n\n");
         assert_eq!((l, c, f.as_str()), (2, 1, "v"), "{m}");
+    }
+
+    #[test]
+    fn the_fast_number_path_agrees_with_the_full_parser() {
+        let mut r = crate::sampler::Rng::new(11);
+        let mut fast = 0;
+        for i in 0..300_000u32 {
+            let x = f32::from_bits(r.next_u32());
+            let y = (r.next_f32() - 0.5) * [1e-6, 1e-3, 1.0, 1e3, 1e7][i as usize % 5];
+            let texts = [
+                format!("{x}"),
+                format!("{y}"),
+                format!("{y:e}"),
+                crate::scene::generate::fmt_g(y as f64),
+                format!("{:.3}", y),
+                format!("{}", r.next_u32() % 100_000_000),
+            ];
+            for t in texts {
+                let full: Option<f32> = t.parse().ok();
+                let quick = fast_f32(t.as_bytes());
+                if let Some(q) = quick {
+                    fast += 1;
+                    assert_eq!(Some(q.to_bits()), full.map(f32::to_bits), "{t}");
+                }
+                assert_eq!(parse_f32(t.as_bytes()).map(f32::to_bits), full.map(f32::to_bits), "{t}");
+            }
+        }
+        assert!(fast > 500_000, "{fast}");
+        for t in ["", "-", "+", ".", "e5", "1e", "1e+", "--1", "1.2.3", "0x10", "1,5", "inf", "nan", "16777217", "1e11"]
+        {
+            assert_eq!(fast_f32(t.as_bytes()), None, "{t}");
+        }
+        for (t, x) in
+            [("-0", -0.0f32), ("+.5", 0.5), ("5.", 5.0), ("1e-05", 1e-5), ("-2.5E+3", -2500.0), ("0.000000", 0.0)]
+        {
+            assert_eq!(fast_f32(t.as_bytes()).map(f32::to_bits), Some(x.to_bits()), "{t}");
+        }
     }
 
     #[test]
