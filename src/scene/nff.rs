@@ -1009,6 +1009,26 @@ mod tests {
     }
 
     #[test]
+    fn entities_may_span_lines_share_one_and_use_crlf() {
+        let mut text = Vec::new();
+        crate::scene::generate::sphereflake(2, &mut text).unwrap();
+        let text = String::from_utf8(text).unwrap();
+        let reference = read(&text).unwrap();
+        let one_line = text.replace('\n', " ");
+        let crlf = text.replace('\n', "\r\n");
+        let one_number_a_line = text.replace(' ', "\n");
+        for variant in [one_line, crlf, one_number_a_line] {
+            let nff = read(&variant).unwrap();
+            assert_eq!(nff.scene.objects.len(), reference.scene.objects.len());
+            for (a, b) in nff.scene.objects.iter().zip(&reference.scene.objects) {
+                assert_eq!(a.shape, b.shape);
+            }
+            assert_eq!(nff.scene.camera, reference.scene.camera);
+        }
+        assert_eq!(read(&text.replace('\n', " ")).unwrap().counts.lines, 1);
+    }
+
+    #[test]
     fn binary_junk_is_an_unknown_command() {
         let (l, _, f, _) = at("\u{89}PNG\r\n\u{1a}\n");
         assert_eq!((l, f.as_str()), (1, "\u{89}PNG"));
