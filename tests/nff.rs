@@ -351,3 +351,28 @@ fn a_file_without_lights_renders_with_ambient_light_and_a_warning() {
     // Ambient 0.2 of white.
     assert_eq!(image::open(&png).unwrap().to_rgb8().get_pixel(4, 4).0, [51, 51, 51]);
 }
+
+#[test]
+fn a_concave_polygon_covers_its_outline_and_not_its_notches() {
+    // A comb facing the camera: three teeth 1 unit wide with notches between them, as
+    // gears' 144-vertex faces need. 64 pixels span 8 units: 8 pixels a unit, x = -4 at 0.
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = write(
+        tmp.path(),
+        "comb.nff",
+        "v\nfrom 0 0 20\nat 0 0 0\nup 0 1 0\nangle 22.6199\nresolution 64 64\nl 0 0 20\nf 1 1 1 1 0 0 0 0\n\
+         p 12\n-2.5 -2 0\n2.5 -2 0\n2.5 2 0\n1.5 2 0\n1.5 0 0\n0.5 0 0\n0.5 2 0\n-0.5 2 0\n-0.5 0 0\n-1.5 0 0\n\
+         -1.5 2 0\n-2.5 2 0\n",
+    );
+    let img = render(&scene, &tmp.path().join("comb.png"), &[]);
+    let lit = |x: f32, y: f32| img.get_pixel(((x + 4.0) * 8.0) as u32, ((4.0 - y) * 8.0) as u32).0 != [0, 0, 0];
+    for x in [-2.0, 0.0, 2.0] {
+        assert!(lit(x, 1.0), "tooth at x = {x}");
+        assert!(lit(x, -1.0), "base at x = {x}");
+    }
+    for x in [-1.0, 1.0] {
+        assert!(!lit(x, 1.0), "notch at x = {x}");
+        assert!(lit(x, -1.0), "base under the notch at x = {x}");
+    }
+    assert!(!lit(3.0, 0.0) && !lit(0.0, 3.0));
+}
