@@ -6,8 +6,10 @@
 //! `c` takes 3 lines, SPD writes it on one), `#` to the end of a line is a comment. The
 //! file streams through one reused line buffer, so size is limited by the scene's
 //! memory, not the file's. Every error names the file, line, column and the command at
-//! fault (`balls.nff:12:1: s: expected 4 numbers (x y z radius), found 3 before `s` on
-//! line 13`), and nothing is rendered.
+//! fault, as in `balls.nff:12:1: s: expected 4 numbers (x y z radius), found 3 ...`:
+//! unknown commands, too few or too many numbers, values that are not (finite)
+//! numbers, vertex counts that do not match the vertices, impossible views, materials
+//! and cones. Nothing is rendered then.
 //!
 //! | entity | becomes |
 //! |--------|---------|
@@ -15,7 +17,7 @@
 //! | `b` | the background colour (black without one). |
 //! | `l` | a point light. Without a colour each light gets `sqrt(N) / (2N)` white for N lights, as the SPD docs suggest, and the ambient term is that value too. A file without lights renders with ambient light only, like a TOML scene (with a warning). |
 //! | `f` | a material, see [`nff_material`]. Identical `f` lines share one. Objects before the first `f` are white and matte (with a warning). |
-//! | `s` | a sphere. A negative radius (inside visible) is made positive: surfaces are two-sided here. A zero radius is skipped with a warning. |
+//! | `s` | a sphere. A negative radius (inside visible) is made positive: surfaces are shaded from whichever side they are seen. A zero radius is skipped with a warning. |
 //! | `c` | open-ended (no caps): a truncated cone, a pointed cone when one radius is 0, a cylinder when they are equal. The narrow end becomes the cone's top. Both radii negative (inside visible) are made positive. Coinciding ends, mixed-sign radii are errors; both radii 0 is skipped with a warning. |
 //! | `p` | triangles in a mesh: convex polygons are fanned, concave ones ear-clipped (see [`triangulate`]), wound as the polygon. Zero-area polygons are skipped with a warning. |
 //! | `pp` | as `p`, with the per-vertex normals kept for smooth shading (normalised). |
@@ -24,6 +26,11 @@
 //! one smooth mesh, so a scene of thousands of polygons is a few objects with their own
 //! BVHs. Objects come out grouped by kind (spheres, cylinders, cones, meshes), the order
 //! the TOML loader uses, so a converted scene loads back identical.
+//!
+//! `render --spd-rules` ([`Renderer::spd_rules`](crate::render::Renderer::spd_rules))
+//! adds the SPD's testing procedure: opaque surfaces are then shaded one-sided, as its
+//! rule 2 allows. Its exception for the teapot's body (double-sided, since the lid
+//! leaves a gap) cannot be recognised in the file and is not made.
 
 use super::{MaterialId, Object, Scene, SceneError};
 use crate::camera::{Camera, CameraError};
