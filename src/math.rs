@@ -58,6 +58,14 @@ pub fn surface_offset(p: Vec3) -> f32 {
     1e-4 * (1.0 + p.abs().max_element())
 }
 
+/// `v` scaled to unit length (`fallback` if it cannot be), or `v` itself when it already
+/// is unit length to within rounding. Normalising is not idempotent in f32 (a third of
+/// normalised vectors move by an ulp when normalised again), and an axis written to a
+/// scene file and read back must come back bit for bit.
+pub fn unit_or(v: Vec3, fallback: Vec3) -> Vec3 {
+    if (v.length_squared() - 1.0).abs() <= 8.0 * f32::EPSILON { v } else { v.normalize_or(fallback) }
+}
+
 /// Mirror reflection of `d` about the normal `n` (both unit).
 pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
     d - 2.0 * d.dot(n) * n
@@ -81,4 +89,22 @@ pub fn orthonormal_basis(n: Vec3) -> (Vec3, Vec3) {
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     (Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), Vec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_or_is_idempotent() {
+        let mut rng = crate::sampler::Rng::new(3);
+        for _ in 0..100_000 {
+            let v = Vec3::new(rng.next_f32() - 0.5, rng.next_f32() - 0.5, rng.next_f32() - 0.5) * 7.0;
+            let a = unit_or(v, Vec3::Y);
+            assert!((a.length() - 1.0).abs() < 1e-6);
+            assert_eq!(unit_or(a, Vec3::Y), a);
+        }
+        assert_eq!(unit_or(Vec3::ZERO, Vec3::Y), Vec3::Y);
+        assert_eq!(unit_or(Vec3::new(0.0, 3.0, 0.0), Vec3::X), Vec3::Y);
+    }
 }

@@ -363,7 +363,12 @@ mod tests {
                     Polygon::new(pts).unwrap().into()
                 }
                 3 => Cylinder::new(c, unit(&mut r), size * 0.5, size * 2.0, r.below(2) == 0).into(),
-                4 => Cone::new(c, unit(&mut r), size, size * 1.5, r.below(2) == 0).into(),
+                4 => {
+                    // Pointed or truncated (narrowing or widening), open or closed.
+                    let top = [0.0, 0.4, 1.6][r.below(3) as usize] * size;
+                    let closed = r.below(2) == 0;
+                    Cone::truncated(c, unit(&mut r), size, top, size * 1.5, closed, closed).into()
+                }
                 5 => Triangle::new(c, c + v(&mut r, 3.0), c + v(&mut r, 3.0)).into(),
                 _ => {
                     // A small random triangle soup, as a mesh.

@@ -1,12 +1,12 @@
 use super::{Hit, Nearest, Surface, disc_bounds, part, turn_fraction};
-use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis};
+use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis, unit_or};
 
 /// Finite circular cylinder from `base` to `base + axis * height`, optionally closed by
 /// two disc caps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cylinder {
     pub base: Vec3,
-    /// Unit length (normalised by [`Cylinder::new`]).
+    /// Unit length (normalised by [`Cylinder::new`], see [`unit_or`]).
     pub axis: Vec3,
     pub radius: f32,
     pub height: f32,
@@ -16,7 +16,7 @@ pub struct Cylinder {
 impl Cylinder {
     /// A zero `axis` falls back to +y rather than turning every later hit into NaN.
     pub fn new(base: Vec3, axis: Vec3, radius: f32, height: f32, caps: bool) -> Self {
-        Cylinder { base, axis: axis.normalize_or(Vec3::Y), radius, height, caps }
+        Cylinder { base, axis: unit_or(axis, Vec3::Y), radius, height, caps }
     }
 
     /// Nearest of the side wall and (with `caps`) both caps. Boundaries are inclusive:

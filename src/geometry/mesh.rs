@@ -7,6 +7,13 @@
 //! smooth = true   # interpolate vertex normals (computed when the file has none)
 //! material = "clay"
 //! transform = { scale = 10, rotate = [0, 30, 0], translate = [0, -1, -5] }
+//!
+//! [[mesh]]   # or the data inline, as `whitted convert` writes NFF polygons
+//! positions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]
+//! normals = [[0, 0, 1], [0, 0, 1], [0, 0, 1]]   # optional: one per position
+//! triangles = [[0, 1, 2]]                       # indices into positions, from 0
+//! smooth = true
+//! material = "clay"
 //! ```
 
 use super::{Hit, Surface, part};
@@ -116,6 +123,11 @@ impl Mesh {
     /// Per-vertex normals; empty when shaded flat.
     pub fn normals(&self) -> &[Vec3] {
         &self.normals
+    }
+
+    /// Per-vertex texture coordinates; empty when the barycentrics serve instead.
+    pub fn uvs(&self) -> &[Vec2] {
+        &self.uvs
     }
 
     pub fn triangles(&self) -> &[[u32; 3]] {

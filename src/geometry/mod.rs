@@ -15,6 +15,7 @@ mod quad;
 mod sphere;
 mod transformed;
 mod triangle;
+pub mod triangulate;
 
 pub use cone::Cone;
 pub use cylinder::Cylinder;

@@ -62,7 +62,9 @@ pub fn apply(shape: Shape, m: &Affine3A) -> Result<Shape, PolygonError> {
         }
         (Shape::Sphere(s), Some(k)) => Sphere::new(p(s.center), s.radius * k).into(),
         (Shape::Cylinder(c), Some(k)) => Cylinder::new(p(c.base), v(c.axis), c.radius * k, c.height * k, c.caps).into(),
-        (Shape::Cone(c), Some(k)) => Cone::new(p(c.base), v(c.axis), c.radius * k, c.height * k, c.cap).into(),
+        (Shape::Cone(c), Some(k)) => {
+            Cone::truncated(p(c.base), v(c.axis), c.radius * k, c.top_radius * k, c.height * k, c.cap, c.top_cap).into()
+        }
         (Shape::Transformed(t), _) => {
             let to_world = *m * t.to_world;
             Shape::Transformed(Box::new(Transformed::new(t.shape, to_world)))

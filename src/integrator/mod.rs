@@ -20,12 +20,23 @@ pub struct Integrator<'w, 's> {
     max_depth: u32,
     background: Color,
     ambient: f32,
+    one_sided: bool,
 }
 
 impl<'w, 's> Integrator<'w, 's> {
     pub fn new(world: &'w World<'s>, max_depth: u32) -> Self {
         let s = &world.scene().settings;
-        Integrator { world, max_depth, background: s.background, ambient: s.ambient }
+        Integrator { world, max_depth, background: s.background, ambient: s.ambient, one_sided: false }
+    }
+
+    /// Shade opaque surfaces one-sided, as the SPD benchmark allows (its rule 2): with
+    /// their own normal even when seen from behind, so their back is lit only by lights
+    /// behind it, and a light is skipped without a shadow ray whenever that normal faces
+    /// away from it (rule 10). Transmitting surfaces stay two-sided. Off by default:
+    /// every surface is then shaded from the side the ray arrives on.
+    pub fn one_sided(mut self, on: bool) -> Self {
+        self.one_sided = on;
+        self
     }
 
     /// The colour seen along a camera ray.
@@ -49,10 +60,12 @@ impl<'w, 's> Integrator<'w, 's> {
         let material = scene.material(object.material);
         let surface = object.shape.surface(ray, &hit);
         let p = surface.point;
-        // The normal on the ray's side of the surface.
-        let n = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
+        // The normal on the ray's side of the surface: secondary rays leave from there.
+        let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
         let offset = surface_offset(p);
-        let lit_from = p + offset * n;
+        let lit_from = p + offset * side;
+        // The normal lights are judged by: the same, unless shading one-sided.
+        let n = if self.one_sided && material.transparency == 0.0 { surface.normal } else { side };
 
         let base = material.texture.color(p, surface.uv);
         let mut diffuse = Color::ZERO;
@@ -83,7 +96,7 @@ impl<'w, 's> Integrator<'w, 's> {
         if depth < self.max_depth {
             if material.reflectivity > 0.0 {
                 stats.reflection += 1;
-                let r = Ray { origin: lit_from, dir: reflect(ray.dir, n) };
+                let r = Ray { origin: lit_from, dir: reflect(ray.dir, side) };
                 color += material.reflectivity * self.trace(&r, depth + 1, stats);
             }
             if material.transparency > 0.0 {
@@ -265,6 +278,32 @@ mod tests {
             &mut RayStats::default(),
         );
         assert!((c - Color::splat(0.2)).abs().max_element() < 1e-6, "{c}");
+    }
+
+    #[test]
+    fn one_sided_shading_leaves_the_back_of_an_opaque_surface_unlit() {
+        // A floor facing down (normal -y) lit from above, seen from above.
+        let mut scene = floor_under(&[]);
+        scene.objects[0].shape =
+            Quad::new(Vec3::new(-5.0, 0.0, 5.0), Vec3::new(0.0, 0.0, -10.0), Vec3::new(10.0, 0.0, 0.0)).into();
+        scene.settings.ambient = 0.1;
+        let world = World::new(&scene, AccelKind::default());
+        let down = Ray::new(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y);
+        let mut stats = RayStats::default();
+        let two_sided = Integrator::new(&world, 5).trace_primary(&down, &mut stats);
+        assert_eq!(stats.shadow, 1);
+        let mut stats = RayStats::default();
+        let one_sided = Integrator::new(&world, 5).one_sided(true).trace_primary(&down, &mut stats);
+        assert_eq!(stats.shadow, 0, "no shadow ray when the normal faces away from the light");
+        assert!(two_sided.x > 0.9, "{two_sided}");
+        assert!((one_sided - Color::splat(0.1)).abs().max_element() < 1e-6, "{one_sided}");
+        // A transmitter stays two-sided.
+        let glass = scene.add_material(Material::color(Color::ONE).transparent(0.5, 1.0));
+        scene.objects[0].material = glass;
+        let world = World::new(&scene, AccelKind::default());
+        let mut stats = RayStats::default();
+        Integrator::new(&world, 5).one_sided(true).trace_primary(&down, &mut stats);
+        assert_eq!(stats.shadow, 1);
     }
 
     #[test]

@@ -1,10 +1,16 @@
 //! Reading scene files (TOML). Parsing keeps the byte span of every value, so that any
 //! problem found later (a negative radius, an unknown material) is reported with the
 //! file, line, column and field at fault. Unknown keys are errors: they are typos.
+//!
+//! Each table's fields are documented with its shape (`[[cone]]` in
+//! [`Cone`](crate::geometry::Cone): `top_radius` and `top_cap` make a truncated cone;
+//! `[[mesh]]` in [`Mesh`](crate::geometry::Mesh): an OBJ `file` or inline `positions`,
+//! `normals` and `triangles`), the camera in [`crate::camera`], lights in
+//! [`crate::light`], materials in [`crate::material`].
 
 use super::{MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};
-use crate::geometry::{self, Cone, Cylinder, Polygon, Quad, Shape, Sphere, Triangle};
+use crate::geometry::{self, Cone, Cylinder, Mesh, Polygon, Quad, Shape, Sphere, Triangle};
 use crate::light::PointLight;
 use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
@@ -197,8 +203,12 @@ struct ConeDesc {
     base: S<V3>,
     axis: S<V3>,
     radius: S<f32>,
+    /// Radius at the top: 0 (default) for a pointed cone, else a truncated one.
+    top_radius: Option<S<f32>>,
     height: S<f32>,
     cap: Option<bool>,
+    /// Close the top (default true; only for `top_radius` > 0).
+    top_cap: Option<S<bool>>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
 }
@@ -206,7 +216,13 @@ struct ConeDesc {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MeshDesc {
-    file: S<String>,
+    /// An OBJ file, or else the data inline in the next three fields.
+    file: Option<S<String>>,
+    positions: Option<S<Vec<V3>>>,
+    /// One per position; without them smooth meshes compute their own.
+    normals: Option<S<Vec<V3>>>,
+    /// Indices into `positions`, from 0.
+    triangles: Option<S<Vec<[i64; 3]>>>,
     smooth: Option<bool>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
@@ -429,12 +445,21 @@ impl Ctx<'_> {
         }
         for c in &desc.cone {
             let c = c.get_ref();
-            let shape = Cone::new(
+            let top_radius = c.top_radius.as_ref().map_or(Ok(0.0), |r| self.non_negative(r, "top_radius"))?;
+            if let Some(top_cap) = &c.top_cap
+                && *top_cap.get_ref()
+                && top_radius == 0.0
+            {
+                return Err(self.err(top_cap, "top_cap", "a pointed cone (top_radius 0) has no top to close"));
+            }
+            let shape = Cone::truncated(
                 self.vec3(&c.base, "base")?,
                 self.direction(&c.axis, "axis")?,
                 self.positive(&c.radius, "radius")?,
+                top_radius,
                 self.positive(&c.height, "height")?,
                 c.cap.unwrap_or(true),
+                top_radius > 0.0 && c.top_cap.as_ref().is_none_or(|t| *t.get_ref()),
             );
             place(&mut scene, shape.into(), &c.material, &c.transform)?;
         }
@@ -451,18 +476,79 @@ impl Ctx<'_> {
             place(&mut scene, Shape::Triangle(Triangle::new(a, b, c)), &t.material, &t.transform)?;
         }
         for m in &desc.mesh {
+            let mesh = self.mesh(m)?;
             let m = m.get_ref();
-            let path = self.base_dir.join(m.file.get_ref());
-            let mesh = super::obj::load_obj(&path, m.smooth.unwrap_or(true)).map_err(|e| match e {
-                // A mesh that cannot be opened is reported where the scene names it.
-                SceneError::File { message, .. } if !path.is_file() => {
-                    self.err(&m.file, "file", format!("{}: {message}", path.display()))
-                }
-                other => other,
-            })?;
             place(&mut scene, mesh.into(), &m.material, &m.transform)?;
         }
         Ok(scene)
+    }
+
+    /// A mesh from its OBJ file or from the arrays written inline.
+    fn mesh(&self, desc: &S<MeshDesc>) -> R<Mesh> {
+        let m = desc.get_ref();
+        let smooth = m.smooth.unwrap_or(true);
+        let Some(positions) = &m.positions else {
+            if let Some(n) = &m.normals {
+                return Err(self.err(n, "normals", "inline `normals` need inline `positions`"));
+            }
+            if let Some(t) = &m.triangles {
+                return Err(self.err(t, "triangles", "inline `triangles` need inline `positions`"));
+            }
+            let Some(file) = &m.file else {
+                return Err(self.err(desc, "file", "a mesh needs a `file`, or `positions` and `triangles`"));
+            };
+            let path = self.base_dir.join(file.get_ref());
+            return super::obj::load_obj(&path, smooth).map_err(|e| match e {
+                // A mesh that cannot be opened is reported where the scene names it.
+                SceneError::File { message, .. } if !path.is_file() => {
+                    self.err(file, "file", format!("{}: {message}", path.display()))
+                }
+                other => other,
+            });
+        };
+        if let Some(file) = &m.file {
+            return Err(self.err(file, "file", "give a mesh either a `file` or inline `positions`, not both"));
+        }
+        let Some(triangles) = &m.triangles else {
+            return Err(self.err(positions, "triangles", "inline `positions` need `triangles` to join them"));
+        };
+        let points = |v: &S<Vec<V3>>, field: &str| -> R<Vec<Vec3>> {
+            v.get_ref()
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let p = Vec3::from_array(*p);
+                    if p.is_finite() {
+                        Ok(p)
+                    } else {
+                        Err(self.err(v, field, format!("entry {i} ({p}) is not finite")))
+                    }
+                })
+                .collect()
+        };
+        let pos = points(positions, "positions")?;
+        let normals = match &m.normals {
+            None => Vec::new(),
+            Some(n) => {
+                let normals = points(n, "normals")?;
+                if normals.len() != pos.len() {
+                    let message =
+                        format!("{} normals for {} positions: give one per position", normals.len(), pos.len());
+                    return Err(self.err(n, "normals", message));
+                }
+                normals
+            }
+        };
+        let mut tris = Vec::with_capacity(triangles.get_ref().len());
+        for (i, t) in triangles.get_ref().iter().enumerate() {
+            if let Some(&bad) = t.iter().find(|&&v| v < 0 || v as usize >= pos.len()) {
+                let message =
+                    format!("triangle {i} refers to vertex {bad}, but there are {} (counted from 0)", pos.len());
+                return Err(self.err(triangles, "triangles", message));
+            }
+            tris.push(t.map(|v| v as u32));
+        }
+        Mesh::new(pos, normals, vec![], tris, smooth).map_err(|e| self.err(triangles, "triangles", e.to_string()))
     }
 
     fn transform(&self, t: &TransformDesc) -> R<glam::Affine3A> {
@@ -628,7 +714,7 @@ impl Ctx<'_> {
             "stripes" => {
                 required(t.axis.is_some(), "axis")?;
                 required(t.width.is_some(), "width")?;
-                let axis = self.direction(t.axis.as_ref().expect("checked"), "axis")?.normalize();
+                let axis = crate::math::unit_or(self.direction(t.axis.as_ref().expect("checked"), "axis")?, Vec3::Y);
                 let width = self.positive(t.width.as_ref().expect("checked"), "width")?;
                 Ok(Texture::Stripes { axis, width, colors: colors()? })
             }
@@ -687,5 +773,70 @@ impl Ctx<'_> {
         let map = Arc::new(ImageMap::load(path)?);
         self.images.borrow_mut().insert(path.to_owned(), map.clone());
         Ok(map)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const CAMERA: &str = "[camera]\nposition = [0, 0, 0]\nlook_at = [0, 0, -1]\nfov = 40\n";
+
+    fn load(body: &str) -> R<Scene> {
+        load_str(&format!("{CAMERA}{body}"), "t.toml", Path::new("."))
+    }
+
+    #[test]
+    fn inline_meshes_load_with_their_normals() {
+        let s = load(
+            "[[mesh]]\npositions = [[0, 0, -5], [1, 0, -5], [0, 1, -5], [1, 1, -5]]\n\
+             normals = [[0, 0, 1], [0, 0, 1], [0.6, 0, 0.8], [0, 0, 1]]\ntriangles = [[0, 1, 2], [1, 3, 2]]\n\
+             material = { color = [1, 1, 1] }\n",
+        )
+        .unwrap();
+        let Shape::Mesh(m) = &s.objects[0].shape else { panic!("not a mesh") };
+        assert_eq!(m.triangles(), &[[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(m.normals()[2], Vec3::new(0.6, 0.0, 0.8));
+        // smooth = false drops the normals.
+        let s = load(
+            "[[mesh]]\npositions = [[0, 0, -5], [1, 0, -5], [0, 1, -5]]\nnormals = [[0, 0, 1], [0, 0, 1], [0, 0, 1]]\n\
+             triangles = [[0, 1, 2]]\nsmooth = false\nmaterial = { color = [1, 1, 1] }\n",
+        )
+        .unwrap();
+        let Shape::Mesh(m) = &s.objects[0].shape else { panic!("not a mesh") };
+        assert!(!m.is_smooth());
+    }
+
+    #[test]
+    fn bad_inline_meshes_are_located() {
+        let field = |body: &str| match load(body).unwrap_err() {
+            SceneError::At { line, field, .. } => (line, field),
+            e => panic!("{e}"),
+        };
+        let m = "material = { color = [1, 1, 1] }\n";
+        assert_eq!(field(&format!("[[mesh]]\n{m}")), (5, "file".into()));
+        assert_eq!(field(&format!("[[mesh]]\npositions = [[0, 0, 0]]\n{m}")), (6, "triangles".into()));
+        assert_eq!(field(&format!("[[mesh]]\ntriangles = [[0, 1, 2]]\n{m}")), (6, "triangles".into()));
+        assert_eq!(
+            field(&format!("[[mesh]]\npositions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\ntriangles = [[]]\n{m}")),
+            (7, "triangles".into())
+        );
+        assert_eq!(
+            field(&format!("[[mesh]]\npositions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\ntriangles = []\n{m}")),
+            (7, "triangles".into())
+        );
+    }
+
+    #[test]
+    fn truncated_cones_load_closed_by_default() {
+        let s = load("[[cone]]\nbase = [0, 0, -5]\naxis = [0, 1, 0]\nradius = 1\ntop_radius = 0.5\nheight = 2\nmaterial = { color = [1, 1, 1] }\n").unwrap();
+        let Shape::Cone(c) = &s.objects[0].shape else { panic!("not a cone") };
+        assert_eq!((c.top_radius, c.cap, c.top_cap), (0.5, true, true));
+        let s = load(
+            "[[cone]]\nbase = [0, 0, -5]\naxis = [0, 1, 0]\nradius = 1\nheight = 2\nmaterial = { color = [1, 1, 1] }\n",
+        )
+        .unwrap();
+        let Shape::Cone(c) = &s.objects[0].shape else { panic!("not a cone") };
+        assert_eq!((c.top_radius, c.top_cap), (0.0, false));
     }
 }

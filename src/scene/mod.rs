@@ -14,7 +14,9 @@
 mod error;
 pub mod generate;
 mod load;
+pub mod nff;
 pub mod obj;
+pub mod save;
 
 pub use error::SceneError;
 pub use load::{DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_file, load_str};
@@ -24,6 +26,48 @@ use crate::geometry::Shape;
 use crate::light::PointLight;
 use crate::material::Material;
 use crate::math::Color;
+use std::path::Path;
+
+/// The scene file formats [`load_path`] reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// The project's own format ([`load_file`]).
+    Toml,
+    /// Eric Haines' Neutral File Format ([`nff`]).
+    Nff,
+}
+
+impl Format {
+    /// By extension: `.nff` (any case) is NFF, anything else TOML.
+    pub fn of_path(path: &Path) -> Format {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some(e) if e.eq_ignore_ascii_case("nff") => Format::Nff,
+            _ => Format::Toml,
+        }
+    }
+}
+
+/// A scene read from a file, with what its reader had to say.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    pub scene: Scene,
+    /// The reader's warnings (skipped or adjusted entities); [`Scene::warnings`] adds
+    /// those about the scene as a whole.
+    pub warnings: Vec<String>,
+    /// For NFF: what the file held and its size.
+    pub nff: Option<nff::Counts>,
+}
+
+/// Reads a scene file in the given format.
+pub fn load_path(path: &Path, format: Format) -> Result<Loaded, SceneError> {
+    match format {
+        Format::Toml => Ok(Loaded { scene: load_file(path)?, warnings: Vec::new(), nff: None }),
+        Format::Nff => {
+            let n = nff::load_nff(path)?;
+            Ok(Loaded { scene: n.scene, warnings: n.warnings, nff: Some(n.counts) })
+        }
+    }
+}
 
 /// Index of a material in [`Scene::materials`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -107,7 +107,8 @@ impl Watcher {
         for (p, s) in &mut self.files {
             *s = stamp(p);
         }
-        let result = scene::load_file(&self.scene_path);
+        // NFF or TOML, by extension, as `whitted render` decides.
+        let result = scene::load_path(&self.scene_path, scene::Format::of_path(&self.scene_path)).map(|l| l.scene);
         // Watch what the text names even when it fails to load: a missing texture is
         // fixed by creating the texture.
         if let Ok(src) = std::fs::read_to_string(&self.scene_path) {
