@@ -6,6 +6,8 @@
 //! scene files or lets you build a scene in code.
 
 #![deny(unsafe_code)]
+// `!(x > 0.0)` is how this code says "not positive, or NaN": the negation is the point.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod accel;
 pub mod bench;
