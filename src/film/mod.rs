@@ -71,17 +71,7 @@ impl PendingOutput {
         if !is_png {
             return Err(OutputError::NotPng { path: path.to_owned() });
         }
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        let mut builder = tempfile::Builder::new();
-        builder.prefix(".whitted-").suffix(".png.tmp");
-        // An image is an ordinary file: rw for everyone the umask allows, not the
-        // owner-only mode temporary files get by default.
-        #[cfg(unix)]
-        builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-        let temp = builder.tempfile_in(dir).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
+        let temp = temp_file_beside(path).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
         Ok(PendingOutput { path: path.to_owned(), temp })
     }
 
@@ -101,6 +91,22 @@ impl PendingOutput {
         self.temp.persist(&path).map_err(|e| io_err(e.error))?;
         Ok(())
     }
+}
+
+/// A temporary file in the folder of `path`, to be renamed over it once complete (a
+/// rename within one file system is atomic). It gets an ordinary file's permissions
+/// (what the umask allows), not the owner-only mode temporary files get by default,
+/// since it becomes the user's output.
+pub fn temp_file_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".whitted-").suffix(".tmp");
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder.tempfile_in(dir)
 }
 
 /// Writes `image` to `path` atomically.

@@ -252,11 +252,7 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut std::io::BufWriter<&mut std::fs::File>) -> std::io::Result<()>,
 ) -> std::io::Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut temp = tempfile::Builder::new().prefix(".whitted-").suffix(".tmp").tempfile_in(dir)?;
+    let mut temp = crate::film::temp_file_beside(path)?;
     {
         let mut w = std::io::BufWriter::with_capacity(1 << 16, temp.as_file_mut());
         write(&mut w)?;
