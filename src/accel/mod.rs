@@ -31,6 +31,12 @@ pub enum AccelKind {
     None,
 }
 
+impl std::fmt::Display for AccelKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 impl AccelKind {
     /// Every structure this build has, for toggles that cycle through them.
     pub const ALL: &'static [AccelKind] = &[AccelKind::Bvh, AccelKind::None];
