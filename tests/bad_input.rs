@@ -2,28 +2,14 @@
 //! non-zero exit, a message naming the file, line and field, no panic, and no output
 //! file. Each scene states the line and field it expects in its first two lines.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn whitted(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_whitted")).args(args).output().expect("run whitted")
-}
+use common::{expectation, files_in, manifest, whitted};
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn bad_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/bad")
-}
-
-/// Reads `# expect-line: N` and `# expect-field: NAME` from the top of a bad scene.
-fn expectation(path: &Path) -> (usize, String) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let value = |key: &str| {
-        text.lines()
-            .find_map(|l| l.strip_prefix(key))
-            .unwrap_or_else(|| panic!("{} lacks '{key}'", path.display()))
-            .trim()
-            .to_owned()
-    };
-    (value("# expect-line:").parse().unwrap(), value("# expect-field:"))
+    manifest("tests/scenes/bad")
 }
 
 fn assert_clean_failure(out: &Output, output_file: &Path, what: &str) -> String {
@@ -39,12 +25,7 @@ fn assert_clean_failure(out: &Output, output_file: &Path, what: &str) -> String 
 #[test]
 fn every_bad_scene_fails_with_file_line_and_field() {
     let tmp = tempfile::tempdir().unwrap();
-    let mut files: Vec<_> = std::fs::read_dir(bad_dir())
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
-        .collect();
-    files.sort();
+    let files = files_in("tests/scenes/bad", "toml");
     assert!(files.len() >= 20, "only {} bad scenes", files.len());
     let mut failures = Vec::new();
     for path in &files {
@@ -151,9 +132,7 @@ fn mesh_scene(dir: &Path, obj: &Path) -> PathBuf {
 #[test]
 fn every_bad_obj_fails_with_file_line_and_statement() {
     let tmp = tempfile::tempdir().unwrap();
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/scenes/bad_obj");
-    let mut files: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).collect();
-    files.sort();
+    let files = files_in("tests/scenes/bad_obj", "obj");
     assert!(files.len() >= 6, "only {} bad OBJ files", files.len());
     let mut failures = Vec::new();
     for obj in &files {

@@ -1,41 +1,17 @@
 //! NFF scenes through the command line: malformed files fail cleanly, naming the file,
 //! line and command.
 
+mod common;
+
+use common::{expectation, files_in, manifest, whitted};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn whitted(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_whitted")).args(args).output().expect("run whitted")
-}
-
-fn manifest(p: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join(p)
-}
-
-/// Reads `# expect-line: N` and `# expect-field: NAME` from the top of a bad file.
-fn expectation(path: &Path) -> (usize, String) {
-    let text = std::fs::read_to_string(path).unwrap();
-    let value = |key: &str| {
-        text.lines()
-            .find_map(|l| l.strip_prefix(key))
-            .unwrap_or_else(|| panic!("{} lacks '{key}'", path.display()))
-            .trim()
-            .to_owned()
-    };
-    (value("# expect-line:").parse().unwrap(), value("# expect-field:"))
-}
 
 /// Every malformed file under tests/scenes/bad_nff/ makes `render` and `convert` fail:
 /// exit code 1, no panic, `error: FILE:LINE:COL: COMMAND: ...`, and no output file.
 #[test]
 fn every_bad_nff_fails_with_file_line_and_command() {
     let tmp = tempfile::tempdir().unwrap();
-    let mut files: Vec<_> = std::fs::read_dir(manifest("tests/scenes/bad_nff"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "nff"))
-        .collect();
-    files.sort();
+    let files = files_in("tests/scenes/bad_nff", "nff");
     assert!(files.len() >= 12, "only {} bad NFF files", files.len());
     let mut failures = Vec::new();
     for path in &files {
