@@ -187,7 +187,7 @@ impl BenchCase {
     }
 
     /// The built-in cases by name: `room`, `spheres-1000` … `spheres-1000000`,
-    /// `cubesphere-1M`.
+    /// `cubesphere-1M`, `cubesphere-10M` (not in the default run: it takes a while).
     pub fn builtin(name: &str) -> Option<BenchCase> {
         Some(match name {
             "room" => BenchCase::room(),
@@ -196,12 +196,15 @@ impl BenchCase {
             "spheres-100000" => BenchCase::sphere_grid(46),
             "spheres-1000000" => BenchCase::sphere_grid(100),
             "cubesphere-1M" => BenchCase::cube_sphere(289),
+            "cubesphere-10M" => BenchCase::cube_sphere(913),
             _ => return None,
         })
     }
 
     pub const BUILTIN: &'static [&'static str] =
         &["room", "spheres-1000", "spheres-10000", "spheres-100000", "spheres-1000000", "cubesphere-1M"];
+    /// Built-in cases run only when named with `--scene`.
+    pub const ON_REQUEST: &'static [&'static str] = &["cubesphere-10M"];
 
     /// A smaller version for quick checks: `size`² primary rays, `incoherent` random ones.
     pub fn reduced(mut self, size: u32, incoherent: usize) -> BenchCase {

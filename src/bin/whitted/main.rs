@@ -70,7 +70,7 @@ enum Generated {
 #[derive(clap::Args)]
 struct BenchArgs {
     /// Run only this built-in scene (room, spheres-1000, spheres-10000, spheres-100000,
-    /// spheres-1000000, cubesphere-1M); repeatable.
+    /// spheres-1000000, cubesphere-1M, and on request cubesphere-10M); repeatable.
     #[arg(long)]
     scene: Vec<String>,
     /// Also measure this OBJ mesh (flat-shaded, framed like the Embree benchmark); repeatable.
@@ -359,11 +359,10 @@ fn bench(args: BenchArgs) -> Result<(), String> {
     } else {
         args.scene.clone()
     };
-    if let Some(bad) = names.iter().find(|n| !BenchCase::BUILTIN.contains(&n.as_str())) {
-        return Err(format!(
-            "--scene {bad}: no such built-in scene (expected one of {})",
-            BenchCase::BUILTIN.join(", ")
-        ));
+    let known = || BenchCase::BUILTIN.iter().chain(BenchCase::ON_REQUEST);
+    if let Some(bad) = names.iter().find(|n| !known().any(|k| k == n)) {
+        let all: Vec<&str> = known().copied().collect();
+        return Err(format!("--scene {bad}: no such built-in scene (expected one of {})", all.join(", ")));
     }
     for m in &args.mesh {
         if !m.is_file() {
