@@ -120,6 +120,8 @@ impl Bvh {
 
     /// Visits, nearest box first, every leaf primitive whose box the ray enters before
     /// the closest hit so far; `test(primitive, t_max)` tests one and says how to go on.
+    /// Renders traverse the 4-wide tree made from this one ([`super::Bvh4`]); this
+    /// plain traversal is the reference the wide one is tested against.
     #[inline]
     pub fn traverse(&self, ray: &Ray, t_min: f32, t_max: f32, mut test: impl FnMut(u32, f32) -> Visit) {
         traverse_nodes(&self.nodes, ray, t_min, t_max, |range, mut t_cur| {
@@ -138,7 +140,7 @@ impl Bvh {
 /// only if the ray enters it, boxes beyond the closest hit skipped. `leaf(range,
 /// t_max)` handles the primitives `range` of a leaf (positions in leaf order).
 #[inline]
-pub fn traverse_nodes(
+fn traverse_nodes(
     nodes: &[Node],
     ray: &Ray,
     t_min: f32,
