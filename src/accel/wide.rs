@@ -158,72 +158,70 @@ impl Bvh4 {
     ) -> bool {
         // (node index or first primitive, primitive count (0 for a node), entry distance)
         let mut stack = [(0u32, 0u32, 0f32); STACK];
-        stack[0] = start;
-        let mut sp = 1;
-        while sp > 0 {
-            sp -= 1;
-            let (index, count, t_enter) = stack[sp];
-            if t_enter > *t_max * ROBUST {
-                continue;
+        let mut sp = 0;
+        let push = |entry: (u32, u32, f32), stack: &mut [(u32, u32, f32); STACK], sp: &mut usize| {
+            if *sp == STACK {
+                return Some(entry);
             }
+            stack[*sp] = entry;
+            *sp += 1;
+            None
+        };
+        let mut current = start;
+        'visit: loop {
+            let (index, count, _) = current;
             if count > 0 {
                 let first = index as usize;
                 match leaf(first..first + count as usize, *t_max) {
                     Visit::Continue(t) => *t_max = t,
                     Visit::Stop => return false,
                 }
-                continue;
-            }
-            let n = &self.nodes[index as usize];
-            let (near, hit) = r.enter(n, t_min, *t_max);
-            if hit == 0 {
-                continue;
-            }
-            if !ORDERED {
-                let mut mask = hit;
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let entry = (n.child[lane], n.count[lane], near[lane]);
-                    if sp == STACK {
-                        if !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf) {
+            } else {
+                let n = &self.nodes[index as usize];
+                let (near, hit) = r.enter(n, t_min, *t_max);
+                if hit != 0 {
+                    // Go straight on into one child (the nearest when ordered) and stack
+                    // the others, farthest first, so that the nearest is popped next.
+                    let mut order = [(0f32, 0usize); 4];
+                    let mut k = 0;
+                    for lane in 0..4 {
+                        if hit & (1 << lane) != 0 {
+                            let d = near[lane];
+                            let mut j = k;
+                            if ORDERED {
+                                while j > 0 && order[j - 1].0 < d {
+                                    order[j] = order[j - 1];
+                                    j -= 1;
+                                }
+                            }
+                            order[j] = (d, lane);
+                            k += 1;
+                        }
+                    }
+                    for &(d, lane) in &order[..k - 1] {
+                        if let Some(entry) = push((n.child[lane], n.count[lane], d), &mut stack, &mut sp)
+                            && !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf)
+                        {
                             return false;
                         }
-                    } else {
-                        stack[sp] = entry;
-                        sp += 1;
                     }
-                }
-                continue;
-            }
-            // Push the entered children farthest first, so the nearest is popped next.
-            let mut order = [(0f32, 0usize); 4];
-            let mut k = 0;
-            for lane in 0..4 {
-                if hit & (1 << lane) != 0 {
-                    let d = near[lane];
-                    let mut j = k;
-                    while j > 0 && order[j - 1].0 < d {
-                        order[j] = order[j - 1];
-                        j -= 1;
-                    }
-                    order[j] = (d, lane);
-                    k += 1;
+                    let (d, lane) = order[k - 1];
+                    current = (n.child[lane], n.count[lane], d);
+                    continue 'visit;
                 }
             }
-            for &(d, lane) in &order[..k] {
-                let entry = (n.child[lane], n.count[lane], d);
-                if sp == STACK {
-                    if !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf) {
-                        return false;
-                    }
-                } else {
-                    stack[sp] = entry;
-                    sp += 1;
+            // Pop the next entry still in front of the closest hit.
+            loop {
+                if sp == 0 {
+                    return true;
+                }
+                sp -= 1;
+                if stack[sp].2 <= *t_max * ROBUST {
+                    current = stack[sp];
+                    continue 'visit;
                 }
             }
         }
-        true
     }
 }
 
