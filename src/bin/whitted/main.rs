@@ -70,7 +70,7 @@ enum Generated {
 #[derive(clap::Args)]
 struct BenchArgs {
     /// Run only this built-in scene (room, spheres-1000, spheres-10000, spheres-100000,
-    /// spheres-1000000, cubesphere-1M, and on request cubesphere-10M); repeatable.
+    /// spheres-1000000, cubesphere-1M, and on request cubesphere-10M, sphere-cloud-1M); repeatable.
     #[arg(long)]
     scene: Vec<String>,
     /// Also measure this OBJ mesh (flat-shaded, framed like the Embree benchmark); repeatable.
