@@ -117,16 +117,8 @@ impl Bvh4 {
     /// beyond the closest hit so far; `leaf(range, t_max)` handles the primitives at
     /// `range` (positions in leaf order) and says how to go on.
     #[inline]
-    pub fn traverse(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
-    ) {
-        let r = WideRay::new(ray);
-        let mut t_max = t_max;
-        self.walk::<true>(&r, (0, 0, t_min), t_min, &mut t_max, &mut leaf);
+    pub fn traverse(&self, ray: &Ray, t_min: f32, t_max: f32, leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit) {
+        self.start::<true>(ray, t_min, t_max, leaf);
     }
 
     /// Like [`Bvh4::traverse`] for queries that need any hit, not the nearest (shadow
@@ -138,11 +130,20 @@ impl Bvh4 {
         ray: &Ray,
         t_min: f32,
         t_max: f32,
+        leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
+    ) {
+        self.start::<false>(ray, t_min, t_max, leaf);
+    }
+
+    #[inline]
+    fn start<const ORDERED: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        mut t_max: f32,
         mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
-        let r = WideRay::new(ray);
-        let mut t_max = t_max;
-        self.walk::<false>(&r, (0, 0, t_min), t_min, &mut t_max, &mut leaf);
+        self.walk::<ORDERED>(&WideRay::new(ray), (0, 0, t_min), t_min, &mut t_max, &mut leaf);
     }
 
     /// Traverses from one stack entry; returns `false` when the closure said stop. The

@@ -221,8 +221,7 @@ impl Cone {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::test_util::{Rng, assert_close, assert_vec_close};
-    use crate::math::{reflect, surface_offset};
+    use crate::geometry::test_util::{Rng, assert_close, assert_offset_rays_do_not_hit_again, assert_vec_close};
 
     /// Base disc of radius 1 at y = -1, apex at y = 1, around x = 0, z = -5: the side's
     /// radius at height y is (1 - y) / 2.
@@ -410,31 +409,8 @@ mod tests {
     #[test]
     fn offset_rays_do_not_hit_again() {
         let c = Cone::new(Vec3::new(2.0, -1.0, -20.0), Vec3::new(0.3, 1.0, 0.2), 1.5, 3.0, true);
-        let b = c.bounds();
-        let mut rng = Rng::new(23);
-        let mut hits = 0;
-        for _ in 0..1000 {
-            let origin = rng.in_box(Vec3::splat(-10.0), Vec3::splat(10.0));
-            let r = Ray::new(origin, rng.in_box(b.min, b.max) - origin);
-            let Some(h) = c.intersect(&r, 0.0, f32::INFINITY) else {
-                continue;
-            };
-            hits += 1;
-            let s = c.surface(&r, &h);
-            let eps = surface_offset(s.point);
-            let bounce = Ray::new(s.point + eps * s.normal, reflect(r.dir, s.normal));
-            assert_eq!(c.intersect(&bounce, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
-            let inner = Ray::new(s.point - eps * s.normal, r.dir);
-            let Some(exit_hit) = c.intersect(&inner, 0.0, f32::INFINITY) else {
-                // Only a hit right at the apex or rim can leave the solid at once.
-                assert!(s.uv.y > 0.999 || s.uv.y < 1e-3, "{r:?} {h:?}");
-                continue;
-            };
-            let exit = c.surface(&inner, &exit_hit);
-            let out = Ray::new(exit.point + surface_offset(exit.point) * exit.normal, r.dir);
-            assert_eq!(c.intersect(&out, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
-        }
-        assert!(hits > 300);
+        // Only a hit right at the apex or rim can leave the solid at once.
+        assert_offset_rays_do_not_hit_again(c, 23, |s| s.uv.y > 0.999 || s.uv.y < 1e-3);
     }
 
     #[test]
@@ -701,22 +677,7 @@ mod tests {
     #[test]
     fn offset_rays_do_not_hit_again_truncated() {
         let c = Cone::truncated(Vec3::new(2.0, -1.0, -20.0), Vec3::new(0.3, 1.0, 0.2), 1.5, 0.6, 3.0, true, true);
-        let b = c.bounds();
-        let mut rng = Rng::new(31);
-        let mut hits = 0;
-        for _ in 0..1000 {
-            let origin = rng.in_box(Vec3::splat(-10.0), Vec3::splat(10.0));
-            let r = Ray::new(origin, rng.in_box(b.min, b.max) - origin);
-            let Some(h) = c.intersect(&r, 0.0, f32::INFINITY) else {
-                continue;
-            };
-            hits += 1;
-            let s = c.surface(&r, &h);
-            let eps = surface_offset(s.point);
-            let bounce = Ray::new(s.point + eps * s.normal, reflect(r.dir, s.normal));
-            assert_eq!(c.intersect(&bounce, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
-        }
-        assert!(hits > 300);
+        assert_offset_rays_do_not_hit_again(c, 31, |s| s.uv.y > 0.999 || s.uv.y < 1e-3);
     }
 
     #[test]

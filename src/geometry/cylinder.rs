@@ -102,8 +102,7 @@ impl Cylinder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::test_util::{Rng, assert_close, assert_vec_close};
-    use crate::math::{reflect, surface_offset};
+    use crate::geometry::test_util::{Rng, assert_close, assert_offset_rays_do_not_hit_again, assert_vec_close};
 
     /// Radius 1, from y = -1 to y = 1, centred on (0, 0, -5).
     fn upright(caps: bool) -> Cylinder {
@@ -276,28 +275,7 @@ mod tests {
     #[test]
     fn offset_rays_do_not_hit_again() {
         let c = Cylinder::new(Vec3::new(2.0, -1.0, -20.0), Vec3::new(0.3, 1.0, 0.2), 1.5, 3.0, true);
-        let b = c.bounds();
-        let mut rng = Rng::new(17);
-        let mut hits = 0;
-        for _ in 0..1000 {
-            let origin = rng.in_box(Vec3::splat(-10.0), Vec3::splat(10.0));
-            let r = Ray::new(origin, rng.in_box(b.min, b.max) - origin);
-            let Some(h) = c.intersect(&r, 0.0, f32::INFINITY) else {
-                continue;
-            };
-            hits += 1;
-            let s = c.surface(&r, &h);
-            let eps = surface_offset(s.point);
-            let bounce = Ray::new(s.point + eps * s.normal, reflect(r.dir, s.normal));
-            assert_eq!(c.intersect(&bounce, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
-            // Into the solid, then out through the exit point: nothing further.
-            let inner = Ray::new(s.point - eps * s.normal, r.dir);
-            let exit_hit = c.intersect(&inner, 0.0, f32::INFINITY).unwrap();
-            let exit = c.surface(&inner, &exit_hit);
-            let out = Ray::new(exit.point + surface_offset(exit.point) * exit.normal, r.dir);
-            assert_eq!(c.intersect(&out, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
-        }
-        assert!(hits > 300);
+        assert_offset_rays_do_not_hit_again(c, 17, |_| false);
     }
 
     #[test]

@@ -168,7 +168,44 @@ pub(crate) fn turn_fraction(v: Vec3, e1: Vec3, e2: Vec3) -> f32 {
 /// Helpers shared by the shapes' unit tests.
 #[cfg(test)]
 pub(crate) mod test_util {
-    use crate::math::{Ray, Vec3};
+    use super::{Shape, Surface};
+    use crate::math::{Ray, Vec3, reflect, surface_offset};
+
+    /// Shadow acne check for a closed shape: rays that leave a hit point pushed off by
+    /// `surface_offset` never meet the same shape again, whether reflected outwards or
+    /// sent on through the solid and out of its far side. `may_not_exit` names the hits
+    /// (at a rim or apex) where the ray into the solid may find no far side.
+    pub fn assert_offset_rays_do_not_hit_again(
+        shape: impl Into<Shape>,
+        seed: u64,
+        may_not_exit: impl Fn(&Surface) -> bool,
+    ) {
+        let shape = shape.into();
+        let b = shape.bounds();
+        let mut rng = Rng::new(seed);
+        let mut hits = 0;
+        for _ in 0..1000 {
+            let origin = rng.in_box(Vec3::splat(-10.0), Vec3::splat(10.0));
+            let r = Ray::new(origin, rng.in_box(b.min, b.max) - origin);
+            let Some(h) = shape.intersect(&r, 0.0, f32::INFINITY) else {
+                continue;
+            };
+            hits += 1;
+            let s = shape.surface(&r, &h);
+            let eps = surface_offset(s.point);
+            let bounce = Ray::new(s.point + eps * s.normal, reflect(r.dir, s.normal));
+            assert_eq!(shape.intersect(&bounce, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
+            let inner = Ray::new(s.point - eps * s.normal, r.dir);
+            let Some(exit_hit) = shape.intersect(&inner, 0.0, f32::INFINITY) else {
+                assert!(may_not_exit(&s), "no far side: {r:?} {h:?}");
+                continue;
+            };
+            let exit = shape.surface(&inner, &exit_hit);
+            let out = Ray::new(exit.point + surface_offset(exit.point) * exit.normal, r.dir);
+            assert_eq!(shape.intersect(&out, 0.0, f32::INFINITY), None, "{r:?} {h:?}");
+        }
+        assert!(hits > 300, "{hits} hits");
+    }
 
     /// xorshift64*: deterministic and dependency-free, plenty for spraying rays.
     pub struct Rng(u64);
