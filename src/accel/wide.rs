@@ -7,12 +7,10 @@ use super::bvh::{Bvh, Node};
 use crate::math::{Ray, Vec3};
 use glam::Vec4;
 
-/// Marks an unused child slot; its box is empty, so rays never enter it.
-const EMPTY: u32 = u32::MAX;
-
-/// A node of up to four children: their boxes, lane by lane, and for each either an
-/// inner node (`count == 0`, `child` = node index) or a leaf (`count` primitives from
-/// position `child` in leaf order). 128 bytes: two cache lines.
+/// A node of up to four children: their boxes, lane by lane, and for each a packed
+/// reference (see [`pack`]) to an inner node or a leaf's run of primitives in leaf
+/// order. An unused slot has an empty box, so rays never enter it. 128 bytes: two cache
+/// lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct Node4 {
@@ -22,8 +20,8 @@ pub struct Node4 {
     max_x: Vec4,
     max_y: Vec4,
     max_z: Vec4,
-    child: [u32; 4],
-    count: [u32; 4],
+    packed: [u32; 4],
+    _pad: [u32; 4],
 }
 
 const _: () = assert!(std::mem::size_of::<Node4>() == 128);
@@ -98,8 +96,10 @@ impl Bvh4 {
     pub fn map_leaves(&mut self, mut f: impl FnMut(u32, u32) -> (u32, u32)) {
         for n in &mut self.nodes {
             for lane in 0..4 {
-                if n.count[lane] > 0 {
-                    (n.child[lane], n.count[lane]) = f(n.child[lane], n.count[lane]);
+                let (child, count) = unpack(n.packed[lane]);
+                if count > 0 {
+                    let (child, count) = f(child, count);
+                    n.packed[lane] = pack(child, count);
                 }
             }
         }
@@ -143,7 +143,7 @@ impl Bvh4 {
         mut t_max: f32,
         mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
-        self.walk::<ORDERED>(&WideRay::new(ray), (0, 0, t_min), t_min, &mut t_max, &mut leaf);
+        self.walk::<ORDERED>(&WideRay::new(ray), (0, t_min), t_min, &mut t_max, &mut leaf);
     }
 
     /// Traverses from one stack entry; returns `false` when the closure said stop. The
@@ -152,25 +152,17 @@ impl Bvh4 {
     fn walk<const ORDERED: bool>(
         &self,
         r: &WideRay,
-        start: (u32, u32, f32),
+        start: (u32, f32),
         t_min: f32,
         t_max: &mut f32,
         leaf: &mut impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) -> bool {
-        // (node index or first primitive, primitive count (0 for a node), entry distance)
-        let mut stack = [(0u32, 0u32, 0f32); STACK];
+        // (packed child, entry distance): eight bytes, so the stack is cheap to set up.
+        let mut stack = [(0u32, 0f32); STACK];
         let mut sp = 0;
-        let push = |entry: (u32, u32, f32), stack: &mut [(u32, u32, f32); STACK], sp: &mut usize| {
-            if *sp == STACK {
-                return Some(entry);
-            }
-            stack[*sp] = entry;
-            *sp += 1;
-            None
-        };
         let mut current = start;
         'visit: loop {
-            let (index, count, _) = current;
+            let (index, count) = unpack(current.0);
             if count > 0 {
                 let first = index as usize;
                 match leaf(first..first + count as usize, *t_max) {
@@ -200,14 +192,16 @@ impl Bvh4 {
                         }
                     }
                     for &(d, lane) in &order[..k - 1] {
-                        if let Some(entry) = push((n.child[lane], n.count[lane], d), &mut stack, &mut sp)
-                            && !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf)
-                        {
+                        let entry = (n.packed[lane], d);
+                        if sp < STACK {
+                            stack[sp] = entry;
+                            sp += 1;
+                        } else if !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf) {
                             return false;
                         }
                     }
                     let (d, lane) = order[k - 1];
-                    current = (n.child[lane], n.count[lane], d);
+                    current = (n.packed[lane], d);
                     continue 'visit;
                 }
             }
@@ -217,13 +211,27 @@ impl Bvh4 {
                     return true;
                 }
                 sp -= 1;
-                if stack[sp].2 <= *t_max * ROBUST {
+                if stack[sp].1 <= *t_max * ROBUST {
                     current = stack[sp];
                     continue 'visit;
                 }
             }
         }
     }
+}
+
+/// A child reference in one u32: a node index (count 0) or a leaf's first primitive,
+/// with the leaf's primitive count in the top four bits (leaves hold at most eight).
+const COUNT_SHIFT: u32 = 28;
+
+fn pack(child: u32, count: u32) -> u32 {
+    assert!(count < 1 << (32 - COUNT_SHIFT) && child < 1 << COUNT_SHIFT, "BVH too large for 32-bit child references");
+    child | count << COUNT_SHIFT
+}
+
+#[inline(always)]
+fn unpack(packed: u32) -> (u32, u32) {
+    (packed & ((1 << COUNT_SHIFT) - 1), packed >> COUNT_SHIFT)
 }
 
 /// Slack on box exit distances. The slab arithmetic rounds, and a ray through the
@@ -233,22 +241,13 @@ impl Bvh4 {
 /// cover the error (pbrt multiplies by 1 + 2γ₃ for the same reason).
 const ROBUST: f32 = 1.0 + 8.0 * f32::EPSILON;
 
-/// Traversal stack entries: enough for trees about twenty wide levels deep before a
-/// nested call takes over.
-const STACK: usize = 64;
+/// Traversal stack entries: enough for trees about ten wide levels deep (three entries a
+/// level) before a nested call takes over.
+const STACK: usize = 32;
 
 fn empty_node() -> Node4 {
     let inf = Vec4::splat(f32::INFINITY);
-    Node4 {
-        min_x: inf,
-        min_y: inf,
-        min_z: inf,
-        max_x: -inf,
-        max_y: -inf,
-        max_z: -inf,
-        child: [EMPTY; 4],
-        count: [0; 4],
-    }
+    Node4 { min_x: inf, min_y: inf, min_z: inf, max_x: -inf, max_y: -inf, max_z: -inf, packed: [0; 4], _pad: [0; 4] }
 }
 
 fn set_lane(n: &mut Node4, lane: usize, b: &Node, child: u32, count: u32) {
@@ -258,8 +257,7 @@ fn set_lane(n: &mut Node4, lane: usize, b: &Node, child: u32, count: u32) {
     n.max_x[lane] = b.max[0];
     n.max_y[lane] = b.max[1];
     n.max_z[lane] = b.max[2];
-    n.child[lane] = child;
-    n.count[lane] = count;
+    n.packed[lane] = pack(child, count);
 }
 
 fn area(n: &Node) -> f32 {
