@@ -3,10 +3,12 @@
 # displaced cube-sphere, same rays) one after the other on this machine, prints the
 # ratios that issue 7 tracks, and appends the figures as JSON lines to
 # bench/results/DATE.jsonl. Installs povray and libembree-dev from Debian if missing.
-# Usage: bench/compare.sh [THREADS]   (default 2)
+# Usage: bench/compare.sh [THREADS] [--big]   (default 2 threads; --big adds the 10M-triangle
+# cube-sphere, about two minutes more)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-threads="${1:-2}"
+threads=2; big=0
+for a in "$@"; do case "$a" in --big) big=1 ;; *) threads="$a" ;; esac; done
 tools=../shared/tools
 cpu="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 date="$(date -u +%Y-%m-%dT%H:%M:%SZ)"
@@ -34,38 +36,65 @@ w1=$(render_time 1); p1=$(pov_time noaa)
 w4=$(render_time 4); p5=$(pov_time aa)
 ./target/embree_bench --gen-cubesphere 289 --name cubesphere-1M --quality high --runs 5 --no-packets > target/embree-1M.txt
 ./target/release/whitted bench --scene cubesphere-1M --threads "$threads" --runs 5 --json > target/whitted-1M.jsonl
+./target/embree_bench --spheres 1000000 --name sphere-cloud-1M --quality high --runs 5 --no-packets > target/embree-cloud.txt
+./target/release/whitted bench --scene sphere-cloud-1M --threads "$threads" --runs 5 --json > target/whitted-cloud.jsonl
+: > target/embree-10M.txt; : > target/whitted-10M.jsonl
+if [ "$big" = 1 ]; then
+    ./target/embree_bench --gen-cubesphere 913 --name cubesphere-10M --quality high --runs 3 --no-packets > target/embree-10M.txt
+    ./target/release/whitted bench --scene cubesphere-10M --threads "$threads" --runs 3 --json > target/whitted-10M.jsonl
+fi
 
 python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" <<'PY'
 import json, re, sys
 w1, p1, w4, p5 = map(float, sys.argv[1:5])
 cpu, date, threads, out = sys.argv[5], sys.argv[6], int(sys.argv[7]), sys.argv[8]
-emb = {}
-for line in open("target/embree-1M.txt"):
-    if not line.startswith("RESULT"):
-        continue
-    f = dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
-    if f["case"] == "build":
-        emb["build_s"] = float(f["best_s"]); emb["bytes"] = float(f["persistent_B_per_prim"])
-    elif int(f.get("threads", 0)) == threads:
-        emb[f["case"]] = float(f["Mrays_per_cpu_s"])
-w = json.loads(open("target/whitted-1M.jsonl").readline())
+def embree(path):
+    emb = {}
+    for line in open(path):
+        if not line.startswith("RESULT"):
+            continue
+        f = dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
+        if f["case"] == "build":
+            emb["build_s"] = float(f["best_s"]); emb["bytes"] = float(f["persistent_B_per_prim"])
+        elif int(f.get("threads", 0)) == threads:
+            emb[f["case"]] = float(f["Mrays_per_cpu_s"])
+    return emb
+
+def mesh_rows(label, emb, w):
+    return [
+        (f"{label} primary Mrays/CPU-s vs rtcIntersect1 (target >= 1.0)", w["primary_mrays_per_cpu_s"] / emb["primary_rtcIntersect1"],
+         f'{w["primary_mrays_per_cpu_s"]:.2f} / {emb["primary_rtcIntersect1"]:.2f}'),
+        (f"{label} shadow Mrays/CPU-s vs rtcOccluded1 (target >= 1.0)", w["shadow_mrays_per_cpu_s"] / emb["shadow_rtcOccluded1"],
+         f'{w["shadow_mrays_per_cpu_s"]:.2f} / {emb["shadow_rtcOccluded1"]:.2f}'),
+        (f"{label} incoherent Mrays/CPU-s vs rtcIntersect1 (target >= 0.7)", w["incoherent_mrays_per_cpu_s"] / emb["incoherent_rtcIntersect1"],
+         f'{w["incoherent_mrays_per_cpu_s"]:.2f} / {emb["incoherent_rtcIntersect1"]:.2f}'),
+        (f"{label} BVH build time vs Embree high quality (target <= 1.5)", w["build_ms"] / 1000 / emb["build_s"], f'{w["build_ms"]/1000:.3f} s / {emb["build_s"]:.3f} s'),
+        (f"{label} acceleration bytes per triangle (target <= 64)", w["bytes_per_primitive"], f'Embree {emb["bytes"]:.1f}'),
+    ]
+
+def whitted(path):
+    line = open(path).readline()
+    return json.loads(line) if line else None
+
+emb, w = embree("target/embree-1M.txt"), whitted("target/whitted-1M.jsonl")
+emb_cloud, w_cloud = embree("target/embree-cloud.txt"), whitted("target/whitted-cloud.jsonl")
 rows = [
     ("room 1 spp: Whitted render / POV-Ray trace (target <= 0.1)", w1 / p1, f"{w1:.3f} s / {p1:.3f} s"),
     ("room AA: Whitted 4 spp / POV-Ray 5 rays (target <= 0.1)", w4 / p5, f"{w4:.3f} s / {p5:.3f} s"),
-    ("primary Mrays/CPU-s vs rtcIntersect1 (target >= 1.0)", w["primary_mrays_per_cpu_s"] / emb["primary_rtcIntersect1"],
-     f'{w["primary_mrays_per_cpu_s"]:.2f} / {emb["primary_rtcIntersect1"]:.2f}'),
-    ("shadow Mrays/CPU-s vs rtcOccluded1 (target >= 1.0)", w["shadow_mrays_per_cpu_s"] / emb["shadow_rtcOccluded1"],
-     f'{w["shadow_mrays_per_cpu_s"]:.2f} / {emb["shadow_rtcOccluded1"]:.2f}'),
-    ("incoherent Mrays/CPU-s vs rtcIntersect1 (target >= 0.7)", w["incoherent_mrays_per_cpu_s"] / emb["incoherent_rtcIntersect1"],
-     f'{w["incoherent_mrays_per_cpu_s"]:.2f} / {emb["incoherent_rtcIntersect1"]:.2f}'),
-    ("BVH build time vs Embree high quality (target <= 1.5)", w["build_ms"] / 1000 / emb["build_s"], f'{w["build_ms"]/1000:.3f} s / {emb["build_s"]:.3f} s'),
-    ("acceleration bytes per triangle (target <= 64)", w["bytes_per_primitive"], f'Embree {emb["bytes"]:.1f}'),
+] + mesh_rows("1M", emb, w) + [
+    ("sphere cloud 1M primary Mrays/CPU-s vs Embree (target >= 1.0)",
+     w_cloud["primary_mrays_per_cpu_s"] / emb_cloud["primary_rtcIntersect1"],
+     f'{w_cloud["primary_mrays_per_cpu_s"]:.3f} / {emb_cloud["primary_rtcIntersect1"]:.3f}'),
 ]
+emb10, w10 = (embree("target/embree-10M.txt"), whitted("target/whitted-10M.jsonl"))
+if w10:
+    rows += mesh_rows("10M", emb10, w10)
 for name, ratio, detail in rows:
-    print(f"{name:<62} {ratio:8.3f}   ({detail})")
+    print(f"{name:<66} {ratio:8.3f}   ({detail})")
 with open(out, "a") as f:
     record = {"date": date, "cpu": cpu, "threads": threads, "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
-              "povray_aa_s": p5, "embree": emb, "whitted": w, "ratios": {n: r for n, r, _ in rows}}
+              "povray_aa_s": p5, "embree": emb, "whitted": w, "embree_cloud": emb_cloud, "whitted_cloud": w_cloud,
+              "embree_10M": emb10 or None, "whitted_10M": w10, "ratios": {n: r for n, r, _ in rows}}
     f.write(json.dumps(record) + "\n")
 print(f"appended to {out}")
 PY

@@ -263,7 +263,11 @@ impl Builder {
     fn new(bounds: &[Aabb], pack: usize) -> Builder {
         let bounds: Vec<Box3> = bounds.iter().map(|b| Box3 { min: b.min.into(), max: b.max.into() }).collect();
         let centroids = bounds.iter().map(|b| 0.5 * (b.min + b.max)).collect();
-        let traversal_cost = if pack > 1 { MESH_TRAVERSAL_COST } else { OBJECT_TRAVERSAL_COST };
+        let traversal_cost = if pack > 1 {
+            std::env::var("TC").ok().and_then(|v| v.parse().ok()).unwrap_or(MESH_TRAVERSAL_COST)
+        } else {
+            OBJECT_TRAVERSAL_COST
+        };
         Builder { bounds, centroids, pack: pack.max(1), traversal_cost }
     }
 

@@ -19,8 +19,8 @@ pub struct Tri4 {
 
 /// A ray splatted across four lanes.
 pub struct Ray4 {
-    o: [Vec4; 3],
-    d: [Vec4; 3],
+    pub(super) o: [Vec4; 3],
+    pub(super) d: [Vec4; 3],
 }
 
 impl Ray4 {
