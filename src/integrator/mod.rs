@@ -58,7 +58,7 @@ impl<'w, 's> Integrator<'w, 's> {
         let scene = self.world.scene();
         let object = &scene.objects[index as usize];
         let material = scene.material(object.material);
-        let surface = object.shape.surface(ray, &hit);
+        let surface = object.shape.surface_uv(ray, &hit, material.texture.uses_uv());
         let p = surface.point;
         // The normal on the ray's side of the surface: secondary rays leave from there.
         let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };

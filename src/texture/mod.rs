@@ -50,6 +50,13 @@ impl Texture {
         Texture::Image { map, scale: Vec2::ONE, offset: Vec2::ZERO }
     }
 
+    /// Whether [`Texture::color`] reads its `uv`: the solid patterns do not, so the
+    /// shading code need not compute it.
+    #[inline]
+    pub fn uses_uv(&self) -> bool {
+        matches!(self, Texture::Image { .. })
+    }
+
     /// Colour at world point `p` with surface coordinates `uv`. Total: any input, even
     /// NaN or infinite (a degenerate hit), gives some colour rather than a panic.
     #[inline]
