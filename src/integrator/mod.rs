@@ -52,13 +52,16 @@ impl<'w, 's> Integrator<'w, 's> {
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
     pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
-        let Some((hit, index)) = self.world.closest(ray, 0.0, f32::INFINITY) else {
+        // Borrowed where `closest` wrote it: copying it out would read it back wider
+        // than it was stored, which stalls store forwarding.
+        let found = self.world.closest(ray, 0.0, f32::INFINITY);
+        let Some((hit, index)) = &found else {
             return self.background;
         };
         let scene = self.world.scene();
-        let object = &scene.objects[index as usize];
+        let object = &scene.objects[*index as usize];
         let material = scene.material(object.material);
-        let surface = object.shape.surface_uv(ray, &hit, material.texture.uses_uv());
+        let surface = object.shape.surface_uv(ray, hit, material.texture.uses_uv());
         let p = surface.point;
         // The normal on the ray's side of the surface: secondary rays leave from there.
         let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
