@@ -80,24 +80,28 @@ impl<'w, 's> Integrator<'w, 's> {
             let base = material.texture.color(p, surface.uv);
             let mut diffuse = Color::ZERO;
             let mut specular = Color::ZERO;
-            for light in &scene.lights {
-                let to_light = light.position - lit_from;
-                let distance = to_light.length();
-                let l = to_light / distance;
-                let n_dot_l = n.dot(l);
-                if n_dot_l <= 0.0 {
-                    continue; // the light is behind the surface
-                }
-                stats.shadow += 1;
-                let visible = self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance);
-                if visible == 0.0 {
-                    continue;
-                }
-                diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
-                if material.specular > 0.0 {
-                    let r_dot_v = reflect(-l, n).dot(-ray.dir);
-                    if r_dot_v > 0.0 {
-                        specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+            // Lights act through the diffuse term and the highlight only: a black texel
+            // (the ceiling's dark squares) without a highlight needs no shadow rays.
+            if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
+                for light in &scene.lights {
+                    let to_light = light.position - lit_from;
+                    let distance = to_light.length();
+                    let l = to_light / distance;
+                    let n_dot_l = n.dot(l);
+                    if n_dot_l <= 0.0 {
+                        continue; // the light is behind the surface
+                    }
+                    stats.shadow += 1;
+                    let visible = self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance);
+                    if visible == 0.0 {
+                        continue;
+                    }
+                    diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
+                    if material.specular > 0.0 {
+                        let r_dot_v = reflect(-l, n).dot(-ray.dir);
+                        if r_dot_v > 0.0 {
+                            specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+                        }
                     }
                 }
             }
@@ -329,6 +333,17 @@ mod tests {
         Integrator::new(&world, 10).trace_primary(&Ray::new(Vec3::new(0.0, 0.0, -0.5), Vec3::Z), &mut stats);
         assert_eq!(stats.primary, 1);
         assert_eq!(stats.reflection, 9, "the primary ray is step 1 of 10");
+    }
+
+    #[test]
+    fn black_matte_surface_sends_no_shadow_rays() {
+        let mut scene = floor_under(&[]);
+        let black = scene.add_material(Material::color(Color::ZERO).matte());
+        scene.objects[0].material = black;
+        let world = World::new(&scene, AccelKind::default());
+        let mut stats = RayStats::default();
+        let c = Integrator::new(&world, 5).trace_primary(&Ray::new(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y), &mut stats);
+        assert_eq!((stats.shadow, c), (0, Color::ZERO));
     }
 
     #[test]
