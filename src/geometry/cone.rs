@@ -182,18 +182,30 @@ impl Cone {
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.surface_uv(ray, hit, true)
+    }
+
+    /// The surface, with `uv` zero unless asked for (see [`super::Shape::surface_uv`]).
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, hit: &Hit, want_uv: bool) -> Surface {
         let local = ray.at(hit.t) - self.base;
         let h = local.dot(self.axis);
         let radial = local - h * self.axis;
-        let (e1, e2) = orthonormal_basis(self.axis);
-        let u = turn_fraction(radial, e1, e2);
+        let u = if want_uv {
+            let (e1, e2) = orthonormal_basis(self.axis);
+            turn_fraction(radial, e1, e2)
+        } else {
+            0.0
+        };
+        // Polar on the caps: u around the axis, v outwards.
+        let cap_uv = |r: f32| {
+            if !want_uv { Vec2::ZERO } else { Vec2::new(u, if r > 0.0 { (radial.length() / r).min(1.0) } else { 0.0 }) }
+        };
         if hit.part == part::BASE_CAP {
-            let rho = if self.radius > 0.0 { (radial.length() / self.radius).min(1.0) } else { 0.0 };
-            return Surface { point: self.base + radial, normal: -self.axis, uv: Vec2::new(u, rho) };
+            return Surface { point: self.base + radial, normal: -self.axis, uv: cap_uv(self.radius) };
         }
         if hit.part == part::TOP_CAP {
-            let rho = if self.top_radius > 0.0 { (radial.length() / self.top_radius).min(1.0) } else { 0.0 };
-            return Surface { point: self.apex() + radial, normal: self.axis, uv: Vec2::new(u, rho) };
+            return Surface { point: self.apex() + radial, normal: self.axis, uv: cap_uv(self.top_radius) };
         }
         let out = radial.normalize_or_zero();
         // Perpendicular to the generator (height·axis + (top_radius − radius)·out) in
@@ -204,7 +216,8 @@ impl Cone {
         // Snapped radially onto the side so secondary rays start on the surface. (Written
         // so that a pointed cone gets exactly `radius·(1 − v)`.)
         let rho = self.radius * (1.0 - v) + self.top_radius * v;
-        Surface { point: self.base + h * self.axis + rho * out, normal, uv: Vec2::new(u, v) }
+        let uv = if want_uv { Vec2::new(u, v) } else { Vec2::ZERO };
+        Surface { point: self.base + h * self.axis + rho * out, normal, uv }
     }
 
     /// The base disc's box grown to the apex, or to the top disc's box.

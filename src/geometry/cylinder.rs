@@ -66,23 +66,40 @@ impl Cylinder {
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.surface_uv(ray, hit, true)
+    }
+
+    /// The surface, with `uv` zero unless asked for (see [`super::Shape::surface_uv`]).
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, hit: &Hit, want_uv: bool) -> Surface {
         let local = ray.at(hit.t) - self.base;
         let h = local.dot(self.axis);
         let radial = local - h * self.axis;
-        let (e1, e2) = orthonormal_basis(self.axis);
+        let u = || {
+            let (e1, e2) = orthonormal_basis(self.axis);
+            turn_fraction(radial, e1, e2)
+        };
         let (point, normal, uv) = match hit.part {
             part::BASE_CAP | part::TOP_CAP => {
                 let (plane, normal) =
                     if hit.part == part::TOP_CAP { (self.height, self.axis) } else { (0.0, -self.axis) };
-                let rho = if self.radius > 0.0 { (radial.length() / self.radius).min(1.0) } else { 0.0 };
                 // Polar: u around the axis as on the wall (the seam lines up), v outwards.
-                let uv = Vec2::new(turn_fraction(radial, e1, e2), rho);
+                let uv = if want_uv {
+                    let rho = if self.radius > 0.0 { (radial.length() / self.radius).min(1.0) } else { 0.0 };
+                    Vec2::new(u(), rho)
+                } else {
+                    Vec2::ZERO
+                };
                 (self.base + plane * self.axis + radial, normal, uv)
             }
             _ => {
-                let normal = radial.normalize_or(e1);
-                let v = if self.height > 0.0 { (h / self.height).clamp(0.0, 1.0) } else { 0.0 };
-                let uv = Vec2::new(turn_fraction(radial, e1, e2), v);
+                let normal = radial.try_normalize().unwrap_or_else(|| orthonormal_basis(self.axis).0);
+                let uv = if want_uv {
+                    let v = if self.height > 0.0 { (h / self.height).clamp(0.0, 1.0) } else { 0.0 };
+                    Vec2::new(u(), v)
+                } else {
+                    Vec2::ZERO
+                };
                 // Snapped onto the wall so secondary rays start on the surface.
                 (self.base + h * self.axis + self.radius * normal, normal, uv)
             }

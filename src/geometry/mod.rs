@@ -91,15 +91,22 @@ impl Shape {
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.surface_uv(ray, hit, true)
+    }
+
+    /// [`Shape::surface`], with `uv` left zero where computing it costs trigonometry
+    /// (sphere, cylinder, cone) unless `uv` is set: most textures never read it.
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, hit: &Hit, uv: bool) -> Surface {
         match self {
-            Shape::Sphere(s) => s.surface(ray, hit),
+            Shape::Sphere(s) => s.surface_uv(ray, hit, uv),
             Shape::Quad(s) => s.surface(ray, hit),
             Shape::Polygon(s) => s.surface(ray, hit),
-            Shape::Cylinder(s) => s.surface(ray, hit),
-            Shape::Cone(s) => s.surface(ray, hit),
+            Shape::Cylinder(s) => s.surface_uv(ray, hit, uv),
+            Shape::Cone(s) => s.surface_uv(ray, hit, uv),
             Shape::Triangle(s) => s.surface(ray, hit),
             Shape::Mesh(s) => s.surface(ray, hit),
-            Shape::Transformed(s) => s.surface(ray, hit),
+            Shape::Transformed(s) => s.surface_uv(ray, hit, uv),
         }
     }
 
@@ -297,6 +304,29 @@ mod tests {
             assert!((s.normal - Vec3::Z).length() < 1e-4, "{shape:?}: normal {}", s.normal);
             let b = shape.bounds();
             assert!(s.point.cmpge(b.min - 1e-5).all() && s.point.cmple(b.max + 1e-5).all());
+        }
+    }
+
+    #[test]
+    fn surface_without_uv_keeps_point_and_normal() {
+        let shapes: [Shape; 4] = [
+            Sphere::new(Vec3::new(0.5, -0.25, 1.0), 1.5).into(),
+            Cylinder::new(Vec3::new(0.0, -1.0, 0.5), Vec3::new(0.2, 1.0, 0.1), 1.0, 2.0, true).into(),
+            Cone::truncated(Vec3::new(0.0, -1.0, 0.5), Vec3::new(0.1, 1.0, -0.2), 1.5, 0.5, 2.0, true, true).into(),
+            Cone::new(Vec3::new(0.0, -1.0, 0.5), Vec3::Y, 1.5, 2.0, true).into(),
+        ];
+        let mut rng = test_util::Rng::new(5);
+        for shape in &shapes {
+            let b = shape.bounds();
+            for _ in 0..2000 {
+                let r = rng.ray(b.min, b.max, 3.0);
+                let Some(h) = shape.intersect(&r, 0.0, f32::INFINITY) else {
+                    continue;
+                };
+                let (full, bare) = (shape.surface(&r, &h), shape.surface_uv(&r, &h, false));
+                assert_eq!((full.point, full.normal), (bare.point, bare.normal), "{shape:?} {r:?}");
+                assert_eq!(bare.uv, Vec2::ZERO);
+            }
         }
     }
 

@@ -42,10 +42,19 @@ impl Sphere {
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.surface_uv(ray, hit, true)
+    }
+
+    /// The surface, with `uv` zero unless asked for (see [`super::Shape::surface_uv`]).
+    #[inline]
+    pub fn surface_uv(&self, ray: &Ray, hit: &Hit, uv: bool) -> Surface {
         let normal = (ray.at(hit.t) - self.center).normalize_or(Vec3::Y);
         // Snapped back onto the sphere so that secondary rays start from the surface and
         // not from wherever the rounding of `origin + t dir` put them.
         let point = self.center + self.radius * normal;
+        if !uv {
+            return Surface { point, normal, uv: Vec2::ZERO };
+        }
         let u = 0.5 + normal.x.atan2(normal.z) * (0.5 * FRAC_1_PI);
         let v = 0.5 - normal.y.clamp(-1.0, 1.0).asin() / PI;
         Surface { point, normal, uv: Vec2::new(u.clamp(0.0, 1.0), v.clamp(0.0, 1.0)) }

@@ -103,8 +103,13 @@ impl Transformed {
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
+        self.surface_uv(ray, hit, true)
+    }
+
+    /// The surface, with `uv` zero unless asked for (see [`Shape::surface_uv`]).
+    pub fn surface_uv(&self, ray: &Ray, hit: &Hit, uv: bool) -> Surface {
         let (r, len) = self.object_ray(ray);
-        let s = self.shape.surface(&r, &Hit { t: hit.t * len, ..*hit });
+        let s = self.shape.surface_uv(&r, &Hit { t: hit.t * len, ..*hit }, uv);
         Surface {
             point: self.to_world.transform_point3(s.point),
             normal: (self.normal_to_world * Vec3A::from(s.normal)).normalize_or_zero().into(),

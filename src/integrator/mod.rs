@@ -52,13 +52,16 @@ impl<'w, 's> Integrator<'w, 's> {
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
     pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
-        let Some((hit, index)) = self.world.closest(ray, 0.0, f32::INFINITY) else {
+        // Borrowed where `closest` wrote it: copying it out would read it back wider
+        // than it was stored, which stalls store forwarding.
+        let found = self.world.closest(ray, 0.0, f32::INFINITY);
+        let Some((hit, index)) = &found else {
             return self.background;
         };
         let scene = self.world.scene();
-        let object = &scene.objects[index as usize];
+        let object = &scene.objects[*index as usize];
         let material = scene.material(object.material);
-        let surface = object.shape.surface(ray, &hit);
+        let surface = object.shape.surface_uv(ray, hit, material.texture.uses_uv());
         let p = surface.point;
         // The normal on the ray's side of the surface: secondary rays leave from there.
         let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
@@ -67,31 +70,43 @@ impl<'w, 's> Integrator<'w, 's> {
         // The normal lights are judged by: the same, unless shading one-sided.
         let n = if self.one_sided && material.transparency == 0.0 { surface.normal } else { side };
 
-        let base = material.texture.color(p, surface.uv);
-        let mut diffuse = Color::ZERO;
-        let mut specular = Color::ZERO;
-        for light in &scene.lights {
-            let to_light = light.position - lit_from;
-            let distance = to_light.length();
-            let l = to_light / distance;
-            let n_dot_l = n.dot(l);
-            if n_dot_l <= 0.0 {
-                continue; // the light is behind the surface
-            }
-            stats.shadow += 1;
-            let visible = self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance);
-            if visible == 0.0 {
-                continue;
-            }
-            diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
-            if material.specular > 0.0 {
-                let r_dot_v = reflect(-l, n).dot(-ray.dir);
-                if r_dot_v > 0.0 {
-                    specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+        let local_share = material.local_share();
+        // A surface with no own share and no highlight (a perfect mirror) shows nothing
+        // the lights could change: no texture lookup, no shadow rays. The colour is the
+        // same, since 0·x + 0 is +0 for any finite x.
+        let mut color = if local_share == 0.0 && !(material.specular > 0.0) {
+            Color::ZERO
+        } else {
+            let base = material.texture.color(p, surface.uv);
+            let mut diffuse = Color::ZERO;
+            let mut specular = Color::ZERO;
+            // Lights act through the diffuse term and the highlight only: a black texel
+            // (the ceiling's dark squares) without a highlight needs no shadow rays.
+            if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
+                for light in &scene.lights {
+                    let to_light = light.position - lit_from;
+                    let distance = to_light.length();
+                    let l = to_light / distance;
+                    let n_dot_l = n.dot(l);
+                    if n_dot_l <= 0.0 {
+                        continue; // the light is behind the surface
+                    }
+                    stats.shadow += 1;
+                    let visible = self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance);
+                    if visible == 0.0 {
+                        continue;
+                    }
+                    diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
+                    if material.specular > 0.0 {
+                        let r_dot_v = reflect(-l, n).dot(-ray.dir);
+                        if r_dot_v > 0.0 {
+                            specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+                        }
+                    }
                 }
             }
-        }
-        let mut color = material.local_share() * (self.ambient * base + diffuse) + specular;
+            local_share * (self.ambient * base + diffuse) + specular
+        };
 
         if depth < self.max_depth {
             if material.reflectivity > 0.0 {
@@ -318,5 +333,34 @@ mod tests {
         Integrator::new(&world, 10).trace_primary(&Ray::new(Vec3::new(0.0, 0.0, -0.5), Vec3::Z), &mut stats);
         assert_eq!(stats.primary, 1);
         assert_eq!(stats.reflection, 9, "the primary ray is step 1 of 10");
+    }
+
+    #[test]
+    fn black_matte_surface_sends_no_shadow_rays() {
+        let mut scene = floor_under(&[]);
+        let black = scene.add_material(Material::color(Color::ZERO).matte());
+        scene.objects[0].material = black;
+        let world = World::new(&scene, AccelKind::default());
+        let mut stats = RayStats::default();
+        let c = Integrator::new(&world, 5).trace_primary(&Ray::new(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y), &mut stats);
+        assert_eq!((stats.shadow, c), (0, Color::ZERO));
+    }
+
+    #[test]
+    fn perfect_mirror_sends_no_shadow_rays() {
+        let mut scene = floor_under(&[]);
+        let mirror = scene.add_material(Material::color(Color::splat(0.5)).reflective(1.0).matte());
+        scene.objects[0].material = mirror;
+        let world = World::new(&scene, AccelKind::default());
+        let mut stats = RayStats::default();
+        let c = Integrator::new(&world, 5).trace_primary(&Ray::new(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y), &mut stats);
+        assert_eq!((stats.shadow, stats.reflection), (0, 1));
+        assert_eq!(c, Color::ZERO, "it reflects the black background");
+        // With a highlight it still needs them.
+        scene.materials[mirror.0 as usize].specular = 1.0;
+        let world = World::new(&scene, AccelKind::default());
+        let mut stats = RayStats::default();
+        Integrator::new(&world, 5).trace_primary(&Ray::new(Vec3::new(0.0, 5.0, 0.0), Vec3::NEG_Y), &mut stats);
+        assert_eq!(stats.shadow, 1);
     }
 }

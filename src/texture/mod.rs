@@ -50,6 +50,13 @@ impl Texture {
         Texture::Image { map, scale: Vec2::ONE, offset: Vec2::ZERO }
     }
 
+    /// Whether [`Texture::color`] reads its `uv`: the solid patterns do not, so the
+    /// shading code need not compute it.
+    #[inline]
+    pub fn uses_uv(&self) -> bool {
+        matches!(self, Texture::Image { .. })
+    }
+
     /// Colour at world point `p` with surface coordinates `uv`. Total: any input, even
     /// NaN or infinite (a degenerate hit), gives some colour rather than a panic.
     #[inline]
@@ -71,9 +78,15 @@ impl Texture {
 
 /// 0 if `floor(t)` is even, 1 if odd, also for negative `t` (where `%` would give -1).
 /// The `as` cast saturates and maps NaN to 0, so no input panics.
+///
+/// The floor is taken by truncating and stepping down below zero: `f32::floor` is a
+/// libm call on the baseline x86-64 target (no SSE4.1), and this is exact for every `t`.
 #[inline]
 fn parity(t: f32) -> usize {
-    (t.floor() as i64).rem_euclid(2) as usize
+    let i = t as i64;
+    // `i` is exact whenever `t` has a fraction (|t| < 2²³), and then compares exactly.
+    let floor = if (i as f32) > t { i.saturating_sub(1) } else { i };
+    (floor & 1) as usize
 }
 
 /// `t` wrapped into [0, 1]; non-finite input goes to 0 so it cannot reach an index.
@@ -182,6 +195,18 @@ mod tests {
         // Two steps on different axes cancel.
         assert_eq!(t.color(base + Vec3::X - Vec3::Z, Vec2::ZERO), BLACK);
         assert_eq!(t.color(base + Vec3::new(1.0, 1.0, 1.0), Vec2::ZERO), WHITE);
+    }
+
+    #[test]
+    fn parity_matches_floor_everywhere() {
+        let reference = |t: f32| (t.floor() as i64).rem_euclid(2) as usize;
+        let special = [0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 8388607.5, -8388607.5, 8388609.0, -8388609.0, 1e19, -1e19];
+        let special = special.into_iter().chain([f32::NAN, f32::INFINITY, f32::NEG_INFINITY, f32::MAX, f32::MIN]);
+        for t in special.chain((0..200_000u32).map(|i| f32::from_bits(i.wrapping_mul(2_654_435_761)))) {
+            assert_eq!(parity(t), reference(t), "{t}");
+            let below = f32::from_bits(t.to_bits().wrapping_sub(1));
+            assert_eq!(parity(below), reference(below), "{below}");
+        }
     }
 
     #[test]
