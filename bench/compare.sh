@@ -44,10 +44,11 @@ if [ "$big" = 1 ]; then
     ./target/release/whitted bench --scene cubesphere-10M --threads "$threads" --runs 3 --json > target/whitted-10M.jsonl
 fi
 
-python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" <<'PY'
+commit="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD 2>/dev/null || echo +changes)"
+python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" "$commit" <<'PY'
 import json, re, sys
 w1, p1, w4, p5 = map(float, sys.argv[1:5])
-cpu, date, threads, out = sys.argv[5], sys.argv[6], int(sys.argv[7]), sys.argv[8]
+cpu, date, threads, out, commit = sys.argv[5], sys.argv[6], int(sys.argv[7]), sys.argv[8], sys.argv[9]
 def embree(path):
     emb = {}
     for line in open(path):
@@ -92,7 +93,7 @@ if w10:
 for name, ratio, detail in rows:
     print(f"{name:<66} {ratio:8.3f}   ({detail})")
 with open(out, "a") as f:
-    record = {"date": date, "cpu": cpu, "threads": threads, "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
+    record = {"date": date, "commit": commit, "cpu": cpu, "threads": threads, "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
               "povray_aa_s": p5, "embree": emb, "whitted": w, "embree_cloud": emb_cloud, "whitted_cloud": w_cloud,
               "embree_10M": emb10 or None, "whitted_10M": w10, "ratios": {n: r for n, r, _ in rows}}
     f.write(json.dumps(record) + "\n")
