@@ -12,9 +12,11 @@ pub mod bvh;
 mod sphere4;
 mod tri4;
 pub mod wide;
+#[cfg(target_arch = "x86_64")]
+pub mod wide8;
 
 pub use bvh::{Bvh, Node, Visit};
-pub use wide::Bvh4;
+pub use wide::{Bvh4, WideBvh};
 
 use crate::geometry::{Hit, Mesh, Shape, part};
 use crate::math::{Ray, Vec2};
@@ -55,16 +57,16 @@ impl AccelKind {
 /// wide-tree leaf names a run of packs.
 #[derive(Debug)]
 struct MeshBvh {
-    tree: Bvh4,
+    tree: WideBvh,
     packs: Vec<Tri4>,
 }
 
 impl MeshBvh {
-    fn build(mesh: &Mesh) -> MeshBvh {
+    fn build(mesh: &Mesh, width: Option<usize>) -> MeshBvh {
         let bounds: Vec<_> =
             (0..mesh.triangle_count()).map(|i| crate::math::Aabb::from_points(mesh.corners(i))).collect();
         let bvh = Bvh::build_packed(&bounds, 4);
-        let mut tree = Bvh4::from_binary(&bvh);
+        let mut tree = wide(&bvh, width);
         let mut packs = Vec::with_capacity(mesh.triangle_count() / 3);
         let mut chunk = Vec::with_capacity(4);
         tree.map_leaves(|first, count| {
@@ -128,6 +130,13 @@ impl MeshBvh {
     }
 }
 
+fn wide(bvh: &Bvh, width: Option<usize>) -> WideBvh {
+    match width {
+        Some(w) => WideBvh::with_width(bvh, w),
+        None => WideBvh::from_binary(bvh),
+    }
+}
+
 /// An entry of a top-level leaf. Spheres, the commonest object in big scenes, are
 /// copied in packs of four and tested together; other objects are named by index.
 #[derive(Clone, Copy, Debug)]
@@ -142,7 +151,7 @@ pub struct World<'s> {
     scene: &'s Scene,
     kind: AccelKind,
     /// Over objects; empty with `AccelKind::None`. Leaf positions index `leaves`.
-    top4: Bvh4,
+    top4: WideBvh,
     leaves: Vec<LeafItem>,
     /// The spheres of each leaf, four at a time, in leaf order.
     spheres: Vec<Sphere4>,
@@ -159,6 +168,12 @@ pub struct World<'s> {
 
 impl<'s> World<'s> {
     pub fn new(scene: &'s Scene, kind: AccelKind) -> Self {
+        World::with_width(scene, kind, None)
+    }
+
+    /// With trees of this many children per node (4, or 8 where the processor has
+    /// AVX2), rather than the best this processor walks: lets tests cover both.
+    pub fn with_width(scene: &'s Scene, kind: AccelKind, width: Option<usize>) -> Self {
         let start = Instant::now();
         let transmission = scene.objects.iter().map(|o| scene.material(o.material).transparency).collect();
         let (top, meshes) = match kind {
@@ -170,7 +185,7 @@ impl<'s> World<'s> {
                     .objects
                     .par_iter()
                     .map(|o| match &o.shape {
-                        Shape::Mesh(m) => Some(MeshBvh::build(m)),
+                        Shape::Mesh(m) => Some(MeshBvh::build(m, width)),
                         _ => None,
                     })
                     .collect();
@@ -186,7 +201,7 @@ impl<'s> World<'s> {
                 (top, meshes)
             }
         };
-        let mut top4 = if top.nodes.is_empty() { Bvh4::default() } else { Bvh4::from_binary(&top) };
+        let mut top4 = if top.nodes.is_empty() { WideBvh::default() } else { wide(&top, width) };
         let (mut leaves, mut spheres) = (Vec::new(), Vec::new());
         top4.map_leaves(|first, count| {
             let start = leaves.len() as u32;
@@ -440,7 +455,9 @@ mod tests {
         let mut rays = 0;
         for seed in 0..6u64 {
             let scene = random_scene(seed, 70 + 40 * seed as usize);
-            let (bvh, brute) = (World::new(&scene, AccelKind::Bvh), World::new(&scene, AccelKind::None));
+            // Even seeds walk 4-wide trees, odd ones 8-wide where the processor can.
+            let width = Some(if seed % 2 == 0 { 4 } else { 8 });
+            let (bvh, brute) = (World::with_width(&scene, AccelKind::Bvh, width), World::new(&scene, AccelKind::None));
             let mut r = Rng::new(1000 + seed);
             for i in 0..40_000 {
                 let origin = v(&mut r, 30.0);
@@ -471,10 +488,16 @@ mod tests {
                 scene.add(s, opaque); // the same sphere again: the lower index must win
             }
         }
-        let (bvh, brute) = (World::new(&scene, AccelKind::Bvh), World::new(&scene, AccelKind::None));
+        for width in [4, 8] {
+            sphere_packs_agree(&scene, width, &mut r);
+        }
+    }
+
+    fn sphere_packs_agree(scene: &Scene, width: usize, r: &mut Rng) {
+        let (bvh, brute) = (World::with_width(scene, AccelKind::Bvh, Some(width)), World::new(scene, AccelKind::None));
         assert!(!bvh.spheres.is_empty() && bvh.spheres.len() * 2 < scene.objects.len(), "spheres not packed");
         for i in 0..40_000 {
-            let ray = Ray::new(v(&mut r, 30.0), unit(&mut r));
+            let ray = Ray::new(v(r, 30.0), unit(r));
             let (a, b) = (bvh.closest(&ray, 0.0, f32::INFINITY), brute.closest(&ray, 0.0, f32::INFINITY));
             assert_eq!(a, b, "ray {i}: {ray:?}");
             let t_max = 5.0 + 20.0 * r.next_f32();
@@ -485,7 +508,13 @@ mod tests {
     #[test]
     fn mesh_bvh_agrees_with_testing_every_triangle() {
         let mesh = crate::scene::generate::cube_sphere(24);
-        let tree = MeshBvh::build(&mesh);
+        for width in [4, 8] {
+            mesh_bvh_agrees(&mesh, width);
+        }
+    }
+
+    fn mesh_bvh_agrees(mesh: &Mesh, width: usize) {
+        let tree = MeshBvh::build(mesh, Some(width));
         let mut r = Rng::new(5);
         for i in 0..100_000 {
             let ray = Ray::new(v(&mut r, 3.0), unit(&mut r));

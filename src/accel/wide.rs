@@ -58,22 +58,7 @@ impl Bvh4 {
 
     /// Fills wide node `at` from binary inner node `binary`, then recurses.
     fn fill(&mut self, bvh: &Bvh, at: usize, binary: usize) {
-        let b = &bvh.nodes[binary];
-        let mut kids: Vec<usize> = vec![b.first as usize, b.first as usize + 1];
-        while kids.len() < 4 {
-            // Open the inner child with the largest surface area.
-            let best = kids
-                .iter()
-                .enumerate()
-                .filter(|(_, k)| !bvh.nodes[**k].is_leaf())
-                .max_by(|(_, a), (_, c)| area(&bvh.nodes[**a]).total_cmp(&area(&bvh.nodes[**c])))
-                .map(|(i, _)| i);
-            let Some(i) = best else { break };
-            let k = kids.swap_remove(i);
-            let n = &bvh.nodes[k];
-            kids.push(n.first as usize);
-            kids.push(n.first as usize + 1);
-        }
+        let kids = collapse(bvh, binary, 4);
         let mut inner = Vec::new();
         for (lane, &k) in kids.iter().enumerate() {
             let n = &bvh.nodes[k];
@@ -136,7 +121,7 @@ impl Bvh4 {
     }
 
     #[inline]
-    fn start<const ORDERED: bool>(
+    pub(super) fn start<const ORDERED: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
@@ -224,17 +209,39 @@ impl Bvh4 {
     }
 }
 
+/// The children of binary inner node `binary` in a `width`-wide node: its two children,
+/// then, while there is room, the inner child with the largest surface area is replaced
+/// by its own two.
+pub(super) fn collapse(bvh: &Bvh, binary: usize, width: usize) -> Vec<usize> {
+    let b = &bvh.nodes[binary];
+    let mut kids: Vec<usize> = vec![b.first as usize, b.first as usize + 1];
+    while kids.len() < width {
+        let best = kids
+            .iter()
+            .enumerate()
+            .filter(|(_, k)| !bvh.nodes[**k].is_leaf())
+            .max_by(|(_, a), (_, c)| area(&bvh.nodes[**a]).total_cmp(&area(&bvh.nodes[**c])))
+            .map(|(i, _)| i);
+        let Some(i) = best else { break };
+        let k = kids.swap_remove(i);
+        let n = &bvh.nodes[k];
+        kids.push(n.first as usize);
+        kids.push(n.first as usize + 1);
+    }
+    kids
+}
+
 /// A child reference in one u32: a node index (count 0) or a leaf's first primitive,
 /// with the leaf's primitive count in the top four bits (leaves hold at most eight).
 const COUNT_SHIFT: u32 = 28;
 
-fn pack(child: u32, count: u32) -> u32 {
+pub(super) fn pack(child: u32, count: u32) -> u32 {
     assert!(count < 1 << (32 - COUNT_SHIFT) && child < 1 << COUNT_SHIFT, "BVH too large for 32-bit child references");
     child | count << COUNT_SHIFT
 }
 
 #[inline(always)]
-fn unpack(packed: u32) -> (u32, u32) {
+pub(super) fn unpack(packed: u32) -> (u32, u32) {
     (packed & ((1 << COUNT_SHIFT) - 1), packed >> COUNT_SHIFT)
 }
 
@@ -261,11 +268,11 @@ fn prefetch(node: &Node4) {
 /// whose primitive it hits, or cull the box of an equally distant one: the BVH would
 /// then pick a different object than testing everything does. A few ulps (relative)
 /// cover the error (pbrt multiplies by 1 + 2γ₃ for the same reason).
-const ROBUST: f32 = 1.0 + 8.0 * f32::EPSILON;
+pub(super) const ROBUST: f32 = 1.0 + 8.0 * f32::EPSILON;
 
 /// Traversal stack entries: enough for trees about ten wide levels deep (three entries a
 /// level) before a nested call takes over.
-const STACK: usize = 32;
+pub(super) const STACK: usize = 32;
 
 fn empty_node() -> Node4 {
     let inf = Vec4::splat(f32::INFINITY);
@@ -326,6 +333,101 @@ impl WideRay {
         let near = nx.max(ny).max(nz.max(Vec4::splat(t_min)));
         let far = fx.min(fy).min(fz.min(Vec4::splat(t_max))) * Vec4::splat(ROBUST);
         (near, near.cmple(far).bitmask())
+    }
+}
+
+/// The tree rays walk: 8-wide where the processor has AVX2, else 4-wide. Both reach the
+/// same leaves (their box tests are the same arithmetic), so images are the same.
+/// `WHITTED_BVH_WIDTH=4` in the environment forces the 4-wide tree, to compare the two.
+#[derive(Clone, Debug)]
+pub enum WideBvh {
+    Four(Bvh4),
+    #[cfg(target_arch = "x86_64")]
+    Eight(super::wide8::Bvh8),
+}
+
+impl Default for WideBvh {
+    fn default() -> Self {
+        WideBvh::Four(Bvh4::default())
+    }
+}
+
+impl WideBvh {
+    pub fn from_binary(bvh: &Bvh) -> WideBvh {
+        let four = std::env::var("WHITTED_BVH_WIDTH").as_deref() == Ok("4");
+        WideBvh::with_width(bvh, if four { 4 } else { 8 })
+    }
+
+    /// The 8-wide tree if asked for and this processor can walk it, else the 4-wide one.
+    pub fn with_width(bvh: &Bvh, width: usize) -> WideBvh {
+        #[cfg(target_arch = "x86_64")]
+        if width == 8
+            && let Some(eight) = super::wide8::Bvh8::from_binary(bvh)
+        {
+            return WideBvh::Eight(eight);
+        }
+        let _ = width;
+        WideBvh::Four(Bvh4::from_binary(bvh))
+    }
+
+    /// Children per node.
+    pub fn width(&self) -> usize {
+        match self {
+            WideBvh::Four(_) => 4,
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(_) => 8,
+        }
+    }
+
+    /// See [`Bvh4::map_leaves`].
+    pub fn map_leaves(&mut self, f: impl FnMut(u32, u32) -> (u32, u32)) {
+        match self {
+            WideBvh::Four(t) => t.map_leaves(f),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.map_leaves(f),
+        }
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        match self {
+            WideBvh::Four(t) => t.memory_bytes(),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.memory_bytes(),
+        }
+    }
+
+    pub fn node_count(&self) -> usize {
+        match self {
+            WideBvh::Four(t) => t.node_count(),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.node_count(),
+        }
+    }
+
+    /// See [`Bvh4::traverse`].
+    #[inline]
+    pub fn traverse(&self, ray: &Ray, t_min: f32, t_max: f32, leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit) {
+        match self {
+            WideBvh::Four(t) => t.start::<true>(ray, t_min, t_max, leaf),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.start::<true>(ray, t_min, t_max, leaf),
+        }
+    }
+
+    /// See [`Bvh4::traverse_any`].
+    #[inline]
+    pub fn traverse_any(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
+    ) {
+        match self {
+            WideBvh::Four(t) => t.start::<false>(ray, t_min, t_max, leaf),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.start::<false>(ray, t_min, t_max, leaf),
+        }
     }
 }
 
