@@ -287,6 +287,8 @@ mod tests {
     use crate::accel::Bvh4;
     use crate::math::Vec3;
 
+    type LeafFn<'a> = dyn FnMut(std::ops::Range<usize>, f32) -> Visit + 'a;
+
     /// Both widths reach the same primitives, in the same nearest-first order of leaves
     /// when ordered, and the same set when not.
     #[test]
@@ -308,7 +310,7 @@ mod tests {
                     Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5),
                 );
                 for ordered in [true, false] {
-                    let collect = |walk: &dyn Fn(&mut dyn FnMut(std::ops::Range<usize>, f32) -> Visit)| {
+                    let collect = |walk: &dyn Fn(&mut LeafFn)| {
                         let mut got = Vec::new();
                         walk(&mut |range, t| {
                             got.extend(range.map(|i| bvh.indices[i]));
