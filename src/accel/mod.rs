@@ -138,10 +138,11 @@ fn wide(bvh: &Bvh, width: Option<usize>) -> WideBvh {
 }
 
 /// An entry of a top-level leaf. Spheres, the commonest object in big scenes, are
-/// copied in packs of four and tested together; other objects are named by index.
+/// copied into the leaf in packs of four and tested together (inline, so a leaf's
+/// spheres are one read from the node, not two); other objects are named by index.
 #[derive(Clone, Copy, Debug)]
 enum LeafItem {
-    Spheres(u32),
+    Spheres(Sphere4),
     Other(u32),
 }
 
@@ -153,8 +154,6 @@ pub struct World<'s> {
     /// Over objects; empty with `AccelKind::None`. Leaf positions index `leaves`.
     top4: WideBvh,
     leaves: Vec<LeafItem>,
-    /// The spheres of each leaf, four at a time, in leaf order.
-    spheres: Vec<Sphere4>,
     /// Per object: the BVH of a mesh object (with `AccelKind::Bvh`).
     meshes: Vec<Option<MeshBvh>>,
     /// Per object, the share of light its material lets through (0 = opaque), looked
@@ -202,7 +201,7 @@ impl<'s> World<'s> {
             }
         };
         let mut top4 = if top.nodes.is_empty() { WideBvh::default() } else { wide(&top, width) };
-        let (mut leaves, mut spheres) = (Vec::new(), Vec::new());
+        let mut leaves = Vec::new();
         top4.map_leaves(|first, count| {
             let start = leaves.len() as u32;
             let ids = &top.indices[first as usize..(first + count) as usize];
@@ -212,14 +211,13 @@ impl<'s> World<'s> {
             };
             let round: Vec<_> = ids.iter().filter_map(|&i| sphere(i)).collect();
             for chunk in round.chunks(4) {
-                leaves.push(LeafItem::Spheres(spheres.len() as u32));
-                spheres.push(Sphere4::pack(chunk));
+                leaves.push(LeafItem::Spheres(Sphere4::pack(chunk)));
             }
             leaves.extend(ids.iter().filter(|&&i| sphere(i).is_none()).map(|&i| LeafItem::Other(i)));
             (start, leaves.len() as u32 - start)
         });
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
-        World { scene, kind, top4, leaves, spheres, meshes, transmission, build_time: start.elapsed(), flat }
+        World { scene, kind, top4, leaves, meshes, transmission, build_time: start.elapsed(), flat }
     }
 
     pub fn scene(&self) -> &'s Scene {
@@ -238,7 +236,6 @@ impl<'s> World<'s> {
     /// Bytes held by the acceleration structures (not the scene's own geometry).
     pub fn memory_bytes(&self) -> usize {
         self.leaves.capacity() * std::mem::size_of::<LeafItem>()
-            + self.spheres.capacity() * std::mem::size_of::<Sphere4>()
             + self.top4.memory_bytes()
             + self.meshes.iter().flatten().map(MeshBvh::memory_bytes).sum::<usize>()
     }
@@ -312,8 +309,7 @@ impl<'s> World<'s> {
                     }
                 };
                 match *item {
-                    LeafItem::Spheres(p) => {
-                        let pack = &self.spheres[p as usize];
+                    LeafItem::Spheres(ref pack) => {
                         let (mut mask, t) = pack.intersect(&r4, t_min, limit);
                         while mask != 0 {
                             let lane = mask.trailing_zeros() as usize;
@@ -358,8 +354,7 @@ impl<'s> World<'s> {
                     light != 0.0
                 };
                 match *item {
-                    LeafItem::Spheres(p) => {
-                        let pack = &self.spheres[p as usize];
+                    LeafItem::Spheres(ref pack) => {
                         let mut blocked = pack.intersect(&r4, 0.0, t_max).0;
                         while blocked != 0 {
                             let lane = blocked.trailing_zeros() as usize;
@@ -495,7 +490,8 @@ mod tests {
 
     fn sphere_packs_agree(scene: &Scene, width: usize, r: &mut Rng) {
         let (bvh, brute) = (World::with_width(scene, AccelKind::Bvh, Some(width)), World::new(scene, AccelKind::None));
-        assert!(!bvh.spheres.is_empty() && bvh.spheres.len() * 2 < scene.objects.len(), "spheres not packed");
+        let packs = bvh.leaves.iter().filter(|l| matches!(l, LeafItem::Spheres(_))).count();
+        assert!(packs > 0 && packs * 2 < scene.objects.len(), "spheres not packed");
         for i in 0..40_000 {
             let ray = Ray::new(v(r, 30.0), unit(r));
             let (a, b) = (bvh.closest(&ray, 0.0, f32::INFINITY), brute.closest(&ray, 0.0, f32::INFINITY));
