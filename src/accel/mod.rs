@@ -93,7 +93,7 @@ impl MeshBvh {
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let r4 = Ray4::new(ray);
         let mut best: Option<Hit> = None;
-        self.tree.traverse(ray, t_min, t_max, |range, mut t_cur| {
+        self.tree.traverse(ray, t_min, t_max, &self.packs, |range, mut t_cur| {
             for pack in &self.packs[range] {
                 // Once something is hit the bound is inclusive, so an equally distant
                 // triangle with a lower id wins, as when every triangle is tested in order.
@@ -118,7 +118,7 @@ impl MeshBvh {
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let r4 = Ray4::new(ray);
         let mut hit = false;
-        self.tree.traverse_any(ray, t_min, t_max, |range, t_cur| {
+        self.tree.traverse_any(ray, t_min, t_max, &self.packs, |range, t_cur| {
             if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
                 hit = true;
                 Visit::Stop
@@ -261,9 +261,9 @@ impl<'s> World<'s> {
             Visit::Continue(t_cur)
         };
         if NEAREST_FIRST {
-            self.top4.traverse(ray, t_min, t_max, leaf)
+            self.top4.traverse(ray, t_min, t_max, &self.leaves, leaf)
         } else {
-            self.top4.traverse_any(ray, t_min, t_max, leaf)
+            self.top4.traverse_any(ray, t_min, t_max, &self.leaves, leaf)
         }
     }
 

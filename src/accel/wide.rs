@@ -103,7 +103,7 @@ impl Bvh4 {
     /// `range` (positions in leaf order) and says how to go on.
     #[inline]
     pub fn traverse(&self, ray: &Ray, t_min: f32, t_max: f32, leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit) {
-        self.start::<true>(ray, t_min, t_max, leaf);
+        self.start::<true, u8>(ray, t_min, t_max, &[], leaf);
     }
 
     /// Like [`Bvh4::traverse`] for queries that need any hit, not the nearest (shadow
@@ -117,29 +117,31 @@ impl Bvh4 {
         t_max: f32,
         leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
-        self.start::<false>(ray, t_min, t_max, leaf);
+        self.start::<false, u8>(ray, t_min, t_max, &[], leaf);
     }
 
     #[inline]
-    pub(super) fn start<const ORDERED: bool>(
+    pub(super) fn start<const ORDERED: bool, T>(
         &self,
         ray: &Ray,
         t_min: f32,
         mut t_max: f32,
+        items: &[T],
         mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
-        self.walk::<ORDERED>(&WideRay::new(ray), (0, t_min), t_min, &mut t_max, &mut leaf);
+        self.walk::<ORDERED, T>(&WideRay::new(ray), (0, t_min), t_min, &mut t_max, items, &mut leaf);
     }
 
     /// Traverses from one stack entry; returns `false` when the closure said stop. The
     /// stack is small so that setting it up costs little per ray; a tree deep enough to
     /// fill it continues in a nested call.
-    fn walk<const ORDERED: bool>(
+    fn walk<const ORDERED: bool, T>(
         &self,
         r: &WideRay,
         start: (u32, f32),
         t_min: f32,
         t_max: &mut f32,
+        items: &[T],
         leaf: &mut impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) -> bool {
         // (packed child, entry distance): eight bytes, so the stack is cheap to set up.
@@ -178,14 +180,15 @@ impl Bvh4 {
                     }
                     for &(d, lane) in &order[..k - 1] {
                         let entry = (n.packed[lane], d);
-                        if let (child, 0) = unpack(entry.0) {
+                        match unpack(entry.0) {
                             // Popped later: start loading it now.
-                            prefetch(&self.nodes[child as usize]);
+                            (child, 0) => prefetch(&self.nodes[child as usize]),
+                            (first, _) => prefetch_items(items, first as usize),
                         }
                         if sp < STACK {
                             stack[sp] = entry;
                             sp += 1;
-                        } else if !self.walk::<ORDERED>(r, entry, t_min, t_max, leaf) {
+                        } else if !self.walk::<ORDERED, T>(r, entry, t_min, t_max, items, leaf) {
                             return false;
                         }
                     }
@@ -256,6 +259,24 @@ fn prefetch(node: &Node4) {
         // SAFETY: a prefetch is only a hint: it never faults, reads nothing into the
         // program and changes no memory, whatever the address; both addresses here lie
         // inside `node`, a live reference (the node is 128 bytes and 64-aligned).
+        unsafe {
+            _mm_prefetch::<_MM_HINT_T0>(p);
+            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+        }
+    }
+}
+
+/// Asks the processor to start loading the first two cache lines of `items[first]`
+/// (a leaf's first triangle pack or top-level entry).
+#[inline(always)]
+#[allow(unsafe_code)]
+pub(super) fn prefetch_items<T>(items: &[T], first: usize) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = items.as_ptr().wrapping_add(first).cast::<i8>();
+        // SAFETY: a prefetch is only a hint: it never faults, reads nothing into the
+        // program and changes no memory, whatever the address (even past the slice).
         unsafe {
             _mm_prefetch::<_MM_HINT_T0>(p);
             _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
@@ -404,29 +425,38 @@ impl WideBvh {
         }
     }
 
-    /// See [`Bvh4::traverse`].
+    /// See [`Bvh4::traverse`]; `items` are what leaf ranges index, so that the walk can
+    /// start loading a leaf's items when it stacks the leaf.
     #[inline]
-    pub fn traverse(&self, ray: &Ray, t_min: f32, t_max: f32, leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit) {
-        match self {
-            WideBvh::Four(t) => t.start::<true>(ray, t_min, t_max, leaf),
-            #[cfg(target_arch = "x86_64")]
-            WideBvh::Eight(t) => t.start::<true>(ray, t_min, t_max, leaf),
-        }
-    }
-
-    /// See [`Bvh4::traverse_any`].
-    #[inline]
-    pub fn traverse_any(
+    pub fn traverse<T>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
+        items: &[T],
         leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
         match self {
-            WideBvh::Four(t) => t.start::<false>(ray, t_min, t_max, leaf),
+            WideBvh::Four(t) => t.start::<true, T>(ray, t_min, t_max, items, leaf),
             #[cfg(target_arch = "x86_64")]
-            WideBvh::Eight(t) => t.start::<false>(ray, t_min, t_max, leaf),
+            WideBvh::Eight(t) => t.start::<true, T>(ray, t_min, t_max, items, leaf),
+        }
+    }
+
+    /// See [`Bvh4::traverse_any`] and [`WideBvh::traverse`].
+    #[inline]
+    pub fn traverse_any<T>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        items: &[T],
+        leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
+    ) {
+        match self {
+            WideBvh::Four(t) => t.start::<false, T>(ray, t_min, t_max, items, leaf),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.start::<false, T>(ray, t_min, t_max, items, leaf),
         }
     }
 }

@@ -96,26 +96,28 @@ impl Bvh8 {
     /// See [`super::Bvh4::traverse`] (`ORDERED`) and [`super::Bvh4::traverse_any`].
     #[inline]
     #[allow(unsafe_code)]
-    pub fn start<const ORDERED: bool>(
+    pub fn start<const ORDERED: bool, T>(
         &self,
         ray: &Ray,
         t_min: f32,
         mut t_max: f32,
+        items: &[T],
         mut leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
         // SAFETY: `walk` only needs AVX2 to be present, and a `Bvh8` exists only if
         // `from_binary` found it on this processor.
-        unsafe { self.walk::<ORDERED>(ray, (0, t_min), t_min, &mut t_max, &mut leaf) };
+        unsafe { self.walk::<ORDERED, T>(ray, (0, t_min), t_min, &mut t_max, items, &mut leaf) };
     }
 
     /// The 4-wide tree's walk, eight lanes at a time.
     #[target_feature(enable = "avx2")]
-    fn walk<const ORDERED: bool>(
+    fn walk<const ORDERED: bool, T>(
         &self,
         ray: &Ray,
         start: (u32, f32),
         t_min: f32,
         t_max: &mut f32,
+        items: &[T],
         leaf: &mut impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) -> bool {
         let r = WideRay8::new(ray);
@@ -153,13 +155,14 @@ impl Bvh8 {
                     }
                     for &(d, lane) in &order[..k - 1] {
                         let entry = (n.packed[lane], d);
-                        if let (child, 0) = unpack(entry.0) {
-                            prefetch(&self.nodes[child as usize]);
+                        match unpack(entry.0) {
+                            (child, 0) => prefetch(&self.nodes[child as usize]),
+                            (first, _) => super::wide::prefetch_items(items, first as usize),
                         }
                         if sp < STACK {
                             stack[sp] = entry;
                             sp += 1;
-                        } else if !self.walk::<ORDERED>(ray, entry, t_min, t_max, leaf) {
+                        } else if !self.walk::<ORDERED, T>(ray, entry, t_min, t_max, items, leaf) {
                             return false;
                         }
                     }
@@ -331,9 +334,9 @@ mod tests {
                     });
                     let b = collect(&|f| {
                         if ordered {
-                            eight.start::<true>(&ray, 0.0, f32::INFINITY, f)
+                            eight.start::<true, u8>(&ray, 0.0, f32::INFINITY, &[], f)
                         } else {
-                            eight.start::<false>(&ray, 0.0, f32::INFINITY, f)
+                            eight.start::<false, u8>(&ray, 0.0, f32::INFINITY, &[], f)
                         }
                     });
                     assert_eq!(a, b, "n = {n}");
