@@ -39,55 +39,13 @@ impl Bvh4 {
     /// Collapses a binary tree: each wide node takes a binary node's children and keeps
     /// opening the inner child with the largest box until it has four.
     pub fn from_binary(bvh: &Bvh) -> Bvh4 {
-        let mut wide = Bvh4 { nodes: Vec::with_capacity(bvh.nodes.len() / 3 + 1) };
-        let root = &bvh.nodes[0];
-        if root.is_leaf() || root.count == 0 && bvh.nodes.len() == 1 {
-            // A single leaf (or nothing): one wide node holding it.
-            let mut n = empty_node();
-            if root.count > 0 {
-                set_lane(&mut n, 0, root, root.first, root.count);
-            }
-            wide.nodes.push(n);
-            return wide;
-        }
-        wide.nodes.push(empty_node());
-        wide.fill(bvh, 0, 0);
-        wide.nodes.shrink_to_fit();
-        wide
-    }
-
-    /// Fills wide node `at` from binary inner node `binary`, then recurses.
-    fn fill(&mut self, bvh: &Bvh, at: usize, binary: usize) {
-        let kids = collapse(bvh, binary, 4);
-        let mut inner = Vec::new();
-        for (lane, &k) in kids.iter().enumerate() {
-            let n = &bvh.nodes[k];
-            if n.is_leaf() {
-                set_lane(&mut self.nodes[at], lane, n, n.first, n.count);
-            } else {
-                let index = self.nodes.len() as u32;
-                self.nodes.push(empty_node());
-                set_lane(&mut self.nodes[at], lane, n, index, 0);
-                inner.push((index as usize, k));
-            }
-        }
-        for (index, k) in inner {
-            self.fill(bvh, index, k);
-        }
+        Bvh4 { nodes: collapse_tree(bvh) }
     }
 
     /// Rewrites every leaf's (first, count), in node order: lets a user re-lay out the
     /// primitives (triangles into packs of four) after the tree is built.
-    pub fn map_leaves(&mut self, mut f: impl FnMut(u32, u32) -> (u32, u32)) {
-        for n in &mut self.nodes {
-            for lane in 0..4 {
-                let (child, count) = unpack(n.packed[lane]);
-                if count > 0 {
-                    let (child, count) = f(child, count);
-                    n.packed[lane] = pack(child, count);
-                }
-            }
-        }
+    pub fn map_leaves(&mut self, f: impl FnMut(u32, u32) -> (u32, u32)) {
+        map_leaves(&mut self.nodes, f);
     }
 
     pub fn memory_bytes(&self) -> usize {
@@ -234,6 +192,68 @@ pub(super) fn collapse(bvh: &Bvh, binary: usize, width: usize) -> Vec<usize> {
     kids
 }
 
+/// What building a wide tree needs of its node type (4 or 8 children).
+pub(super) trait WideNode: Sized {
+    const WIDTH: usize;
+    /// A node whose slots all have empty boxes.
+    fn empty() -> Self;
+    /// Sets slot `lane` to binary node `b`'s box and a packed child reference.
+    fn set_lane(&mut self, lane: usize, b: &Node, child: u32, count: u32);
+    fn packed_mut(&mut self) -> &mut [u32];
+}
+
+/// The wide nodes of a binary tree, root first.
+pub(super) fn collapse_tree<N: WideNode>(bvh: &Bvh) -> Vec<N> {
+    let mut nodes = Vec::with_capacity(bvh.nodes.len() / (N::WIDTH - 1) + 1);
+    let root = &bvh.nodes[0];
+    let mut n = N::empty();
+    if root.is_leaf() || root.count == 0 && bvh.nodes.len() == 1 {
+        // A single leaf (or nothing): one wide node holding it.
+        if root.count > 0 {
+            n.set_lane(0, root, root.first, root.count);
+        }
+        nodes.push(n);
+        return nodes;
+    }
+    nodes.push(n);
+    fill(&mut nodes, bvh, 0, 0);
+    nodes.shrink_to_fit();
+    nodes
+}
+
+/// Fills wide node `at` from binary inner node `binary`, then recurses.
+fn fill<N: WideNode>(nodes: &mut Vec<N>, bvh: &Bvh, at: usize, binary: usize) {
+    let kids = collapse(bvh, binary, N::WIDTH);
+    let mut inner = Vec::new();
+    for (lane, &k) in kids.iter().enumerate() {
+        let n = &bvh.nodes[k];
+        if n.is_leaf() {
+            nodes[at].set_lane(lane, n, n.first, n.count);
+        } else {
+            let index = nodes.len() as u32;
+            nodes.push(N::empty());
+            nodes[at].set_lane(lane, n, index, 0);
+            inner.push((index as usize, k));
+        }
+    }
+    for (index, k) in inner {
+        fill(nodes, bvh, index, k);
+    }
+}
+
+/// Rewrites every leaf reference (first, count) with `f`, in node order.
+pub(super) fn map_leaves<N: WideNode>(nodes: &mut [N], mut f: impl FnMut(u32, u32) -> (u32, u32)) {
+    for n in nodes {
+        for packed in n.packed_mut() {
+            let (child, count) = unpack(*packed);
+            if count > 0 {
+                let (child, count) = f(child, count);
+                *packed = pack(child, count);
+            }
+        }
+    }
+}
+
 /// A child reference in one u32: a node index (count 0) or a leaf's first primitive,
 /// with the leaf's primitive count in the top four bits (leaves hold at most eight).
 const COUNT_SHIFT: u32 = 28;
@@ -295,19 +315,36 @@ pub(super) const ROBUST: f32 = 1.0 + 8.0 * f32::EPSILON;
 /// level) before a nested call takes over.
 pub(super) const STACK: usize = 32;
 
-fn empty_node() -> Node4 {
-    let inf = Vec4::splat(f32::INFINITY);
-    Node4 { min_x: inf, min_y: inf, min_z: inf, max_x: -inf, max_y: -inf, max_z: -inf, packed: [0; 4], _pad: [0; 4] }
-}
+impl WideNode for Node4 {
+    const WIDTH: usize = 4;
 
-fn set_lane(n: &mut Node4, lane: usize, b: &Node, child: u32, count: u32) {
-    n.min_x[lane] = b.min[0];
-    n.min_y[lane] = b.min[1];
-    n.min_z[lane] = b.min[2];
-    n.max_x[lane] = b.max[0];
-    n.max_y[lane] = b.max[1];
-    n.max_z[lane] = b.max[2];
-    n.packed[lane] = pack(child, count);
+    fn empty() -> Node4 {
+        let inf = Vec4::splat(f32::INFINITY);
+        Node4 {
+            min_x: inf,
+            min_y: inf,
+            min_z: inf,
+            max_x: -inf,
+            max_y: -inf,
+            max_z: -inf,
+            packed: [0; 4],
+            _pad: [0; 4],
+        }
+    }
+
+    fn set_lane(&mut self, lane: usize, b: &Node, child: u32, count: u32) {
+        self.min_x[lane] = b.min[0];
+        self.min_y[lane] = b.min[1];
+        self.min_z[lane] = b.min[2];
+        self.max_x[lane] = b.max[0];
+        self.max_y[lane] = b.max[1];
+        self.max_z[lane] = b.max[2];
+        self.packed[lane] = pack(child, count);
+    }
+
+    fn packed_mut(&mut self) -> &mut [u32] {
+        &mut self.packed
+    }
 }
 
 fn area(n: &Node) -> f32 {

@@ -8,7 +8,7 @@
 //! time), which is what makes calling its `avx2` traversal sound.
 
 use super::bvh::{Bvh, Node, Visit};
-use super::wide::{ROBUST, STACK, collapse, pack, unpack};
+use super::wide::{ROBUST, STACK, WideNode, collapse_tree, map_leaves, pack, unpack};
 use crate::math::Ray;
 use std::arch::x86_64::*;
 
@@ -34,55 +34,12 @@ pub struct Bvh8 {
 impl Bvh8 {
     /// Collapses a binary tree into 8-wide nodes, or `None` if this processor lacks AVX2.
     pub fn from_binary(bvh: &Bvh) -> Option<Bvh8> {
-        if !std::is_x86_feature_detected!("avx2") {
-            return None;
-        }
-        let mut wide = Bvh8 { nodes: Vec::with_capacity(bvh.nodes.len() / 6 + 1) };
-        let root = &bvh.nodes[0];
-        let mut n = empty_node();
-        if root.is_leaf() || root.count == 0 && bvh.nodes.len() == 1 {
-            if root.count > 0 {
-                set_lane(&mut n, 0, root, root.first, root.count);
-            }
-            wide.nodes.push(n);
-        } else {
-            wide.nodes.push(n);
-            wide.fill(bvh, 0, 0);
-        }
-        wide.nodes.shrink_to_fit();
-        Some(wide)
-    }
-
-    fn fill(&mut self, bvh: &Bvh, at: usize, binary: usize) {
-        let kids = collapse(bvh, binary, 8);
-        let mut inner = Vec::new();
-        for (lane, &k) in kids.iter().enumerate() {
-            let n = &bvh.nodes[k];
-            if n.is_leaf() {
-                set_lane(&mut self.nodes[at], lane, n, n.first, n.count);
-            } else {
-                let index = self.nodes.len() as u32;
-                self.nodes.push(empty_node());
-                set_lane(&mut self.nodes[at], lane, n, index, 0);
-                inner.push((index as usize, k));
-            }
-        }
-        for (index, k) in inner {
-            self.fill(bvh, index, k);
-        }
+        std::is_x86_feature_detected!("avx2").then(|| Bvh8 { nodes: collapse_tree(bvh) })
     }
 
     /// See [`super::Bvh4::map_leaves`].
-    pub fn map_leaves(&mut self, mut f: impl FnMut(u32, u32) -> (u32, u32)) {
-        for n in &mut self.nodes {
-            for lane in 0..8 {
-                let (child, count) = unpack(n.packed[lane]);
-                if count > 0 {
-                    let (child, count) = f(child, count);
-                    n.packed[lane] = pack(child, count);
-                }
-            }
-        }
+    pub fn map_leaves(&mut self, f: impl FnMut(u32, u32) -> (u32, u32)) {
+        map_leaves(&mut self.nodes, f);
     }
 
     pub fn memory_bytes(&self) -> usize {
@@ -200,21 +157,25 @@ fn prefetch(node: &Node8) {
     }
 }
 
-fn empty_node() -> Node8 {
-    let inf = [f32::INFINITY; 8];
-    Node8 {
-        bounds: [inf, inf, inf, [-f32::INFINITY; 8], [-f32::INFINITY; 8], [-f32::INFINITY; 8]],
-        packed: [0; 8],
-        _pad: [0; 8],
-    }
-}
+impl WideNode for Node8 {
+    const WIDTH: usize = 8;
 
-fn set_lane(n: &mut Node8, lane: usize, b: &Node, child: u32, count: u32) {
-    for axis in 0..3 {
-        n.bounds[axis][lane] = b.min[axis];
-        n.bounds[3 + axis][lane] = b.max[axis];
+    fn empty() -> Node8 {
+        let (inf, neg) = ([f32::INFINITY; 8], [f32::NEG_INFINITY; 8]);
+        Node8 { bounds: [inf, inf, inf, neg, neg, neg], packed: [0; 8], _pad: [0; 8] }
     }
-    n.packed[lane] = pack(child, count);
+
+    fn set_lane(&mut self, lane: usize, b: &Node, child: u32, count: u32) {
+        for axis in 0..3 {
+            self.bounds[axis][lane] = b.min[axis];
+            self.bounds[3 + axis][lane] = b.max[axis];
+        }
+        self.packed[lane] = pack(child, count);
+    }
+
+    fn packed_mut(&mut self) -> &mut [u32] {
+        &mut self.packed
+    }
 }
 
 /// The ray splatted across eight lanes; as [`super::wide`]'s `WideRay`.
