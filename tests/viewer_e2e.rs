@@ -209,11 +209,14 @@ impl Session {
 }
 
 fn start(tmp: &Path, scene_file: &Path) -> Session {
-    // Xvfb picks a free display itself and writes its number to the pipe.
+    // Xvfb picks a free display itself and writes its number to the pipe. `-noreset`:
+    // by default the server resets when its last client leaves, and a client that
+    // connects during the reset is refused (CI once saw the viewer's XOpenDisplay fail
+    // right after the xdotool probe below disconnected).
     let fbdir = tmp.join("fb");
     std::fs::create_dir(&fbdir).unwrap();
     let mut xvfb = Command::new("Xvfb")
-        .args(["-displayfd", "1", "-screen", "0", "640x480x24", "-nolisten", "tcp", "-fbdir"])
+        .args(["-displayfd", "1", "-noreset", "-screen", "0", "640x480x24", "-nolisten", "tcp", "-fbdir"])
         .arg(&fbdir)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
