@@ -41,6 +41,12 @@ impl Sphere4 {
         let r2 = self.radius * self.radius;
         let perp = [oc[0] - b * r.d[0], oc[1] - b * r.d[1], oc[2] - b * r.d[2]];
         let disc = r2 - dot(&perp, &perp);
+        let real = disc.cmpge(Vec4::ZERO);
+        if real.bitmask() == 0 {
+            // Most tests in a cloud miss every sphere of the pack: skip the root and
+            // the division.
+            return (0, Vec4::ZERO);
+        }
         let c = dot(&oc, &oc) - r2;
         let q = -(b + disc.sqrt().copysign(b));
         let (t0, t1) = (c / q, q);
@@ -52,7 +58,7 @@ impl Sphere4 {
         let near_ok = near.cmpgt(lo) & near.cmplt(hi);
         let far_ok = far.cmpgt(lo) & far.cmplt(hi);
         let t = Vec4::select(near_ok, near, far);
-        (((near_ok | far_ok) & disc.cmpge(Vec4::ZERO)).bitmask(), t)
+        (((near_ok | far_ok) & real).bitmask(), t)
     }
 }
 
