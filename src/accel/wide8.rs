@@ -92,6 +92,29 @@ impl Bvh8 {
             } else {
                 let n = &self.nodes[index as usize];
                 let (near, mut hit) = enter!(&r, n, t_min, *t_max);
+                if !ORDERED && hit != 0 {
+                    // Any hit will do: no order to keep. Go on into the last child,
+                    // stack the others.
+                    let last = 31 - hit.leading_zeros() as usize;
+                    hit &= !(1 << last);
+                    while hit != 0 {
+                        let lane = hit.trailing_zeros() as usize;
+                        hit &= hit - 1;
+                        let entry = (n.packed[lane], near[lane]);
+                        match unpack(entry.0) {
+                            (child, 0) => prefetch(&self.nodes[child as usize]),
+                            (first, _) => super::wide::prefetch_items(items, first as usize),
+                        }
+                        if sp < STACK {
+                            stack[sp] = entry;
+                            sp += 1;
+                        } else if !self.walk::<ORDERED, T>(ray, entry, t_min, t_max, items, leaf) {
+                            return false;
+                        }
+                    }
+                    current = (n.packed[last], near[last]);
+                    continue 'visit;
+                }
                 if hit != 0 {
                     // Nearest child next; the others stacked farthest first.
                     let mut order = [(0f32, 0usize); 8];
