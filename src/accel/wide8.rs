@@ -216,9 +216,16 @@ impl WideRay8 {
         let safe = |d: f32| if d.abs() < 1e-30 { 1e-30f32.copysign(d) } else { d };
         let d = [safe(ray.dir.x), safe(ray.dir.y), safe(ray.dir.z)];
         let o = ray.origin.to_array();
+        // One 4-lane division for the three reciprocals (each lane rounds as 1.0 / d).
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), _mm_setr_ps(d[0], d[1], d[2], 1.0));
+        let splat = |x: __m128| _mm256_broadcastss_ps(x);
         WideRay8 {
             org: [_mm256_set1_ps(o[0]), _mm256_set1_ps(o[1]), _mm256_set1_ps(o[2])],
-            inv: [_mm256_set1_ps(1.0 / d[0]), _mm256_set1_ps(1.0 / d[1]), _mm256_set1_ps(1.0 / d[2])],
+            inv: [
+                splat(inv),
+                splat(_mm_shuffle_ps::<0b01_01_01_01>(inv, inv)),
+                splat(_mm_shuffle_ps::<0b10_10_10_10>(inv, inv)),
+            ],
             near_row: [0, 1, 2].map(|i| if d[i] < 0.0 { 3 + i } else { i }),
         }
     }
