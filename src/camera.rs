@@ -74,6 +74,15 @@ impl Camera {
 }
 
 impl CameraRig {
+    /// The apex and four edge directions (in order round the rim) of a cone that holds
+    /// every ray [`CameraRig::ray`] makes for positions in `[x0, x1] × [y0, y1]`. It is
+    /// a pixel wider on each side, far more than rounding can move a ray.
+    pub fn cone(&self, x0: f32, y0: f32, x1: f32, y1: f32) -> (Vec3, [Vec3; 4]) {
+        let d = |x: f32, y: f32| self.corner + x * self.pixel_dx + y * self.pixel_dy;
+        let (x0, y0, x1, y1) = (x0 - 1.0, y0 - 1.0, x1 + 1.0, y1 + 1.0);
+        (self.origin, [d(x0, y0), d(x1, y0), d(x1, y1), d(x0, y1)])
+    }
+
     /// The ray through image position (`x`, `y`) in pixels, (0, 0) the top-left corner
     /// of the image and (width, height) the bottom-right one.
     #[inline]

@@ -205,6 +205,11 @@ impl<'s> Renderer<'s> {
                 let mut stats = RayStats::default();
                 let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 let mut samples: Vec<Vec2> = Vec::with_capacity(self.spp as usize);
+                // In a small scene the tile's camera rays need only test the objects
+                // its cone of rays meets (samples stay inside their pixels).
+                let mut seen = Vec::new();
+                let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
+                let culled = world.seen_from(apex, edges, &mut seen);
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let mut rng = Rng::for_pixel(x, y, 0);
@@ -212,7 +217,11 @@ impl<'s> Renderer<'s> {
                         let mut sum = Color::ZERO;
                         for s in &samples {
                             let ray = rig.ray(x as f32 + s.x, y as f32 + s.y);
-                            sum += integrator.trace_primary(&ray, &mut stats);
+                            sum += if culled {
+                                integrator.trace_primary_among(&seen, &ray, &mut stats)
+                            } else {
+                                integrator.trace_primary(&ray, &mut stats)
+                            };
                         }
                         pixels.push(sum / samples.len() as f32);
                     }

@@ -19,7 +19,8 @@ pub use bvh::{Bvh, Node, Visit};
 pub use wide::{Bvh4, WideBvh};
 
 use crate::geometry::{Hit, Mesh, Shape, part};
-use crate::math::{Ray, Vec2};
+use crate::math::{Ray, Vec2, Vec3};
+use glam::DVec3;
 use crate::scene::Scene;
 use sphere4::Sphere4;
 use std::time::{Duration, Instant};
@@ -129,6 +130,12 @@ impl MeshBvh {
         hit
     }
 }
+
+/// Scenes of at most this many objects cull them per image tile for camera rays
+/// ([`World::seen_from`]): a test per object per tile, cheap while objects are few...
+const CONE_MAX_OBJECTS: usize = 64;
+/// ...and worth it while a tile sees few of them: past this the tree does better.
+const CONE_MAX_SEEN: usize = 6;
 
 /// No object: the index of the best hit before there is one.
 const NONE: u32 = u32::MAX;
@@ -339,6 +346,54 @@ impl<'s> World<'s> {
         best
     }
 
+    /// The objects whose boxes meet the cone of rays from `apex` within the four edge
+    /// directions `edges` (see [`crate::camera::CameraRig::cone`]), in index order, into
+    /// `seen`; `false` (and `seen` left unusable) when that would not pay: no tree was
+    /// asked for, the scene is not small, or the cone sees many objects. Camera rays
+    /// through an image tile then test only these, with [`World::closest_among`].
+    pub fn seen_from(&self, apex: Vec3, edges: [Vec3; 4], seen: &mut Vec<u32>) -> bool {
+        seen.clear();
+        if self.kind != AccelKind::Bvh || self.scene.objects.len() > CONE_MAX_OBJECTS {
+            return false;
+        }
+        // Inward normals of the cone's four sides, in f64 so that the test cannot
+        // round a box out that a ray of the cone reaches.
+        let e = edges.map(|v| v.as_dvec3());
+        let axis = e[0] + e[1] + e[2] + e[3];
+        let sides: [DVec3; 4] = std::array::from_fn(|i| {
+            let n = e[i].cross(e[(i + 1) % 4]);
+            if n.dot(axis) < 0.0 { -n } else { n }
+        });
+        let apex = apex.as_dvec3();
+        for (i, o) in self.scene.objects.iter().enumerate() {
+            let b = o.shape.bounds();
+            let (centre, half) = ((b.min + b.max).as_dvec3() * 0.5 - apex, (b.max - b.min).as_dvec3() * 0.5);
+            // Wholly behind one side: no ray of the cone reaches it. (NaN keeps it.)
+            if !sides.iter().any(|n| n.dot(centre) + n.abs().dot(half) < 0.0) {
+                if seen.len() == CONE_MAX_SEEN {
+                    return false;
+                }
+                seen.push(i as u32);
+            }
+        }
+        true
+    }
+
+    /// [`World::closest`] among objects `ids` (in index order) only: for rays that can
+    /// reach no others ([`World::seen_from`]), the same answer without the tree.
+    #[inline]
+    pub fn closest_among(&self, ids: &[u32], ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
+        // Field by field, as in `closest`.
+        let (mut t_max, mut best, mut index) = (t_max, Hit { t: 0.0, uv: Vec2::ZERO, part: 0, prim: 0 }, NONE);
+        for &i in ids {
+            if let Some(h) = self.intersect_object(i as usize, ray, t_min, t_max) {
+                t_max = h.t;
+                (best.t, best.uv, best.part, best.prim, index) = (h.t, h.uv, h.part, h.prim, i);
+            }
+        }
+        (index != NONE).then_some((best, index))
+    }
+
     /// The share of light that travels from `ray.origin` a distance `t_max` along the
     /// ray: the product of the transmission of every object in the way, each counted
     /// once however many of its surfaces the segment crosses (two overlapping 70 %
@@ -453,6 +508,48 @@ mod tests {
             scene.add(shape, m);
         }
         scene
+    }
+
+    #[test]
+    fn camera_rays_through_a_tile_test_only_what_its_cone_sees_and_find_the_same() {
+        // Small random scenes seen by cameras from outside and from inside; every
+        // 4 x 4 pixel tile culls to its cone, and each ray, through the pixel centre
+        // and through the tile's corners, must find what the tree finds.
+        let (mut culled, mut hits, mut dropped) = (0, 0, 0);
+        for seed in 0..12u64 {
+            let mut scene = random_scene(seed, 14);
+            let mut r = Rng::new(seed + 100);
+            let eye = if seed % 2 == 0 { v(&mut r, 60.0) } else { v(&mut r, 8.0) };
+            scene.camera = Camera::new(eye, v(&mut r, 5.0), Vec3::Y, 30.0 + 60.0 * r.next_f32(), 32, 24);
+            let world = World::new(&scene, AccelKind::Bvh);
+            let rig = scene.camera.rig().unwrap();
+            let mut seen = Vec::new();
+            for (ty, tx) in (0..6).flat_map(|ty| (0..8).map(move |tx| (ty, tx))) {
+                let (x0, y0) = (tx as f32 * 4.0, ty as f32 * 4.0);
+                let (apex, edges) = rig.cone(x0, y0, x0 + 4.0, y0 + 4.0);
+                if !world.seen_from(apex, edges, &mut seen) {
+                    continue;
+                }
+                culled += 1;
+                dropped += scene.objects.len() - seen.len();
+                assert!(seen.windows(2).all(|w| w[0] < w[1]));
+                for (sx, sy) in (0..=8).flat_map(|j| (0..=8).map(move |i| (i as f32 * 0.5, j as f32 * 0.5))) {
+                    let ray = rig.ray(x0 + sx, y0 + sy);
+                    let want = world.closest(&ray, 0.0, f32::INFINITY);
+                    let got = world.closest_among(&seen, &ray, 0.0, f32::INFINITY);
+                    assert_eq!(got, want, "seed {seed}, tile ({tx}, {ty}), at ({sx}, {sy})");
+                    hits += want.is_some() as u32;
+                }
+            }
+        }
+        assert!(culled > 100 && hits > 1000 && dropped > 1000, "{culled} tiles, {hits} hits, {dropped} objects culled");
+        // Not for big scenes, nor without a tree.
+        let big = random_scene(1, 100);
+        let rig = big.camera.rig().unwrap();
+        let (apex, edges) = rig.cone(0.0, 0.0, 1.0, 1.0);
+        assert!(!World::new(&big, AccelKind::Bvh).seen_from(apex, edges, &mut Vec::new()));
+        let small = random_scene(1, 3);
+        assert!(!World::new(&small, AccelKind::None).seen_from(apex, edges, &mut Vec::new()));
     }
 
     #[test]

@@ -7,7 +7,7 @@ mod stats;
 pub use stats::RayStats;
 
 use crate::accel::World;
-use crate::geometry::Surface;
+use crate::geometry::{Hit, Surface};
 use crate::math::{Color, Ray, Vec3, reflect, refract, surface_offset};
 
 /// The index of refraction of the space between objects.
@@ -45,17 +45,31 @@ impl<'w, 's> Integrator<'w, 's> {
         self.trace(ray, 1, stats)
     }
 
+    /// [`Integrator::trace_primary`] for a camera ray that can only reach objects
+    /// `seen` (see [`World::seen_from`]): the same colour, found without the tree.
+    pub fn trace_primary_among(&self, seen: &[u32], ray: &Ray, stats: &mut RayStats) -> Color {
+        stats.primary += 1;
+        let found = self.world.closest_among(seen, ray, 0.0, f32::INFINITY);
+        self.shade(ray, &found, 1, stats)
+    }
+
     /// The colour seen along `ray`, the `depth`-th ray of its chain.
+    pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
+        // Borrowed where `closest` wrote it: copying it out would read it back wider
+        // than it was stored, which stalls store forwarding.
+        let found = self.world.closest(ray, 0.0, f32::INFINITY);
+        self.shade(ray, &found, depth, stats)
+    }
+
+    /// The colour of what `ray` found (`None`: the background).
     ///
     /// A surface's colour is `(1 − ρ − τ)·(ambient + diffuse) + ρ·reflected +
     /// τ·transmitted + specular`, the original's blending rules in one formula
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
-    pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
-        // Borrowed where `closest` wrote it: copying it out would read it back wider
-        // than it was stored, which stalls store forwarding.
-        let found = self.world.closest(ray, 0.0, f32::INFINITY);
-        let Some((hit, index)) = &found else {
+    #[inline(always)]
+    fn shade(&self, ray: &Ray, found: &Option<(Hit, u32)>, depth: u32, stats: &mut RayStats) -> Color {
+        let Some((hit, index)) = found else {
             return self.background;
         };
         let scene = self.world.scene();
