@@ -96,7 +96,9 @@ impl Shape {
 
     /// [`Shape::surface`], with `uv` left zero where computing it costs trigonometry
     /// (sphere, cylinder, cone) unless `uv` is set: most textures never read it.
-    #[inline]
+    /// Always inlined: returned through memory, the surface was written in pieces and
+    /// read back wider, which stalls store forwarding in the shading that follows.
+    #[inline(always)]
     pub fn surface_uv(&self, ray: &Ray, hit: &Hit, uv: bool) -> Surface {
         match self {
             Shape::Sphere(s) => s.surface_uv(ray, hit, uv),

@@ -52,6 +52,7 @@ impl Quad {
         Some(Hit { prim: 0, t, uv: Vec2::new(a, b), part: part::SIDE })
     }
 
+    #[inline]
     pub fn surface(&self, _ray: &Ray, hit: &Hit) -> Surface {
         // Rebuilt from (a, b) rather than `origin + t dir`: exactly on the plane.
         let point = self.corner + hit.uv.x * self.edge_u + hit.uv.y * self.edge_v;
