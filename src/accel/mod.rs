@@ -299,12 +299,15 @@ impl<'s> World<'s> {
     pub fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
         let mut best: Option<(Hit, u32)> = None;
         if self.flat {
-            let mut t_max = t_max;
+            let (mut t_max, mut b, mut index) = (t_max, Hit { t: 0.0, uv: Vec2::ZERO, part: 0, prim: 0 }, NONE);
             for i in 0..self.scene.objects.len() {
                 if let Some(h) = self.intersect_object(i, ray, t_min, t_max) {
                     t_max = h.t;
-                    best = Some((h, i as u32));
+                    (b.t, b.uv, b.part, b.prim, index) = (h.t, h.uv, h.part, h.prim, i as u32);
                 }
+            }
+            if index != NONE {
+                best = Some((b, index));
             }
         } else {
             let r4 = Ray4::new(ray);
