@@ -19,7 +19,7 @@ pub use bvh::{Bvh, Node, Visit};
 pub use wide::{Bvh4, WideBvh};
 
 use crate::geometry::{Hit, Mesh, Shape, part};
-use crate::math::{Ray, Vec2, Vec3};
+use crate::math::{Aabb, Ray, Vec2, Vec3};
 use glam::DVec3;
 use crate::scene::Scene;
 use sphere4::Sphere4;
@@ -382,9 +382,95 @@ impl<'s> World<'s> {
         true
     }
 
+    /// The objects that could stand between a point of the boxes `from` and the point
+    /// `light`, in index order, into `blockers`; `false` (and `blockers` unusable) when
+    /// that would not pay or cannot be bounded, as in [`World::seen_from`]. `from` pairs
+    /// an object with a box round points on it (the hits of an image tile): shadow
+    /// rays leave from those points, pushed off the surface towards the light, and
+    /// then test only the objects found here, with [`World::transmittance_among`].
+    ///
+    /// Two conservative tests, in f64 with margins of 1e-3 (relative) that cover the
+    /// rounding of the f32 ones. A quad is passed over when the light and every point
+    /// not on the quad itself lie strictly on one side of its plane (a point on it
+    /// starts its shadow ray off the plane on the light's side: true of two-sided
+    /// shading, not of [`crate::integrator::Integrator::one_sided`]). Any object is passed
+    /// over when its bounding sphere misses the cone, apex at the light, that the
+    /// segments to the points' bounding sphere fill, or lies beyond its reach.
+    pub fn may_shadow(&self, from: &[(u32, Aabb)], light: Vec3, blockers: &mut Vec<u32>) -> bool {
+        blockers.clear();
+        if self.kind != AccelKind::Bvh || self.scene.objects.len() > CONE_MAX_OBJECTS {
+            return false;
+        }
+        let margin = |b: Aabb| {
+            let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+            let m = 1e-3 * (1.0 + lo.abs().max(hi.abs()).max_element());
+            (lo - m, hi + m)
+        };
+        let sphere = |(lo, hi): (DVec3, DVec3)| ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
+        let union = |skip: Option<u32>| {
+            from.iter().filter(|(o, _)| Some(*o) != skip).fold(Aabb::EMPTY, |b, (_, p)| b.union(*p))
+        };
+        let light = light.as_dvec3();
+        let (centre, radius) = sphere(margin(union(None)));
+        let axis = centre - light;
+        let reach = axis.length();
+        // The light inside (or nearly) the points' sphere: no cone to speak of.
+        if !(radius.is_finite() && reach.is_finite() && radius < 0.9 * reach) {
+            return false;
+        }
+        let spread = (radius / reach).asin();
+        for (i, o) in self.scene.objects.iter().enumerate() {
+            if let Shape::Quad(q) = &o.shape {
+                let (normal, d) = q.plane();
+                let (n, d) = (normal.as_dvec3(), d as f64);
+                let side = |x: DVec3| n.dot(x) - d;
+                let others = union(Some(i as u32));
+                let (lo, hi) = margin(others);
+                let corners = (0..8).map(|k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][k >> 1 & 1], [lo.z, hi.z][k >> 2]));
+                let l = side(light);
+                let tol = 1e-3 * (1.0 + n.abs().dot(light.abs()) + d.abs());
+                if others.min.x > others.max.x || (l.abs() > tol && corners.into_iter().all(|c| side(c) * l > 0.0)) {
+                    continue;
+                }
+            }
+            let (c, r) = sphere(margin(o.shape.bounds()));
+            let v = c - light;
+            let e = v.length();
+            let blocks = if !(r.is_finite() && e.is_finite()) || e <= r {
+                true
+            } else {
+                let angle = (v.dot(axis) / (e * reach)).clamp(-1.0, 1.0).acos();
+                e - r <= reach + radius && angle <= spread + (r / e).asin() + 1e-3
+            };
+            if blocks {
+                if blockers.len() == CONE_MAX_SEEN {
+                    return false;
+                }
+                blockers.push(i as u32);
+            }
+        }
+        true
+    }
+
+    /// [`World::transmittance`] counting objects `ids` (in index order) only: for
+    /// shadow rays no other object can block ([`World::may_shadow`]).
+    #[inline]
+    pub fn transmittance_among(&self, ids: &[u32], ray: &Ray, t_max: f32) -> f32 {
+        let mut light = 1.0f64;
+        for &i in ids {
+            if self.blocks(i as usize, ray, t_max) {
+                light *= self.transmission[i as usize] as f64;
+                if light == 0.0 {
+                    return 0.0;
+                }
+            }
+        }
+        light as f32
+    }
+
     /// [`World::closest`] among objects `ids` (in index order) only: for rays that can
     /// reach no others ([`World::seen_from`]), the same answer without the tree.
-    #[inline]
+    #[inline(always)]
     pub fn closest_among(&self, ids: &[u32], ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
         // Field by field, as in `closest`.
         let (mut t_max, mut best, mut index) = (t_max, Hit { t: 0.0, uv: Vec2::ZERO, part: 0, prim: 0 }, NONE);
@@ -553,6 +639,69 @@ mod tests {
         assert!(!World::new(&big, AccelKind::Bvh).seen_from(apex, edges, &mut Vec::new()));
         let small = random_scene(1, 3);
         assert!(!World::new(&small, AccelKind::None).seen_from(apex, edges, &mut Vec::new()));
+    }
+
+    #[test]
+    fn shadow_rays_from_a_tiles_hits_need_only_the_objects_that_may_shadow_them() {
+        // As a render does: a tile's camera hits, boxed per object; for lights here and
+        // there, the shadow ray from each hit (pushed off its surface towards the light)
+        // must pass the same light testing the culled list as testing everything.
+        let (mut checked, mut culled_lists, mut dropped) = (0, 0, 0);
+        for seed in 0..16u64 {
+            let mut scene = random_scene(seed, 12);
+            // Walls too: quads are culled by their planes.
+            let wall = scene.objects[0].material;
+            for (c, u, v) in [(Vec3::new(-30.0, -30.0, -30.0), Vec3::X, Vec3::Y), (Vec3::new(-30.0, -30.0, -30.0), Vec3::Z, Vec3::X)] {
+                scene.add(Quad::new(c, u * 60.0, v * 60.0), wall);
+            }
+            let mut r = Rng::new(seed + 7);
+            scene.camera = Camera::new(v(&mut r, 25.0), v(&mut r, 5.0), Vec3::Y, 50.0, 24, 16);
+            let lights: Vec<Vec3> = (0..4).map(|_| v(&mut r, 28.0)).collect();
+            let world = World::new(&scene, AccelKind::Bvh);
+            let rig = scene.camera.rig().unwrap();
+            let mut seen = Vec::new();
+            for (ty, tx) in (0..4).flat_map(|ty| (0..6).map(move |tx| (ty, tx))) {
+                let (x0, y0) = (tx as f32 * 4.0, ty as f32 * 4.0);
+                let (apex, edges) = rig.cone(x0, y0, x0 + 4.0, y0 + 4.0);
+                if !world.seen_from(apex, edges, &mut seen) {
+                    continue;
+                }
+                let mut found = Vec::new();
+                let mut boxes: Vec<(u32, Aabb)> = Vec::new();
+                for (sx, sy) in (0..8).flat_map(|j| (0..8).map(move |i| (i as f32 * 0.5 + 0.25, j as f32 * 0.5 + 0.25))) {
+                    let ray = rig.ray(x0 + sx, y0 + sy);
+                    if let Some((h, i)) = world.closest_among(&seen, &ray, 0.0, f32::INFINITY) {
+                        match boxes.iter_mut().find(|(o, _)| *o == i) {
+                            Some((_, b)) => *b = b.grow(ray.at(h.t)),
+                            None => boxes.push((i, Aabb::EMPTY.grow(ray.at(h.t)))),
+                        }
+                        found.push((ray, h, i));
+                    }
+                }
+                for &light in &lights {
+                    let mut few = Vec::new();
+                    if !world.may_shadow(&boxes, light, &mut few) {
+                        continue;
+                    }
+                    culled_lists += 1;
+                    dropped += scene.objects.len() - few.len();
+                    for (ray, h, i) in &found {
+                        let s = scene.objects[*i as usize].shape.surface(ray, h);
+                        let side = if ray.dir.dot(s.normal) < 0.0 { s.normal } else { -s.normal };
+                        let from = s.point + crate::math::surface_offset(s.point) * side;
+                        let (to, distance) = ((light - from).normalize(), (light - from).length());
+                        if side.dot(to) <= 0.0 {
+                            continue; // shading sends no shadow ray
+                        }
+                        let shadow = Ray { origin: from, dir: to };
+                        let (want, got) = (world.transmittance(&shadow, distance), world.transmittance_among(&few, &shadow, distance));
+                        assert_eq!(got.to_bits(), want.to_bits(), "seed {seed}, tile ({tx}, {ty}), light {light}");
+                        checked += 1;
+                    }
+                }
+            }
+        }
+        assert!(checked > 5000 && culled_lists > 100 && dropped > 500, "{checked} rays, {culled_lists} lists, {dropped} dropped");
     }
 
     #[test]

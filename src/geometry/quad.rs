@@ -32,6 +32,11 @@ impl Quad {
         self.normal
     }
 
+    /// The plane: unit normal `n` and offset `d`, `n · x = d` on the quad.
+    pub fn plane(&self) -> (Vec3, f32) {
+        (self.normal, self.plane_d)
+    }
+
     /// Two-sided. Edges are inclusive; a ray parallel to the plane (even one lying in
     /// it) misses.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {

@@ -45,12 +45,18 @@ impl<'w, 's> Integrator<'w, 's> {
         self.trace(ray, 1, stats)
     }
 
-    /// [`Integrator::trace_primary`] for a camera ray that can only reach objects
-    /// `seen` (see [`World::seen_from`]): the same colour, found without the tree.
-    pub fn trace_primary_among(&self, seen: &[u32], ray: &Ray, stats: &mut RayStats) -> Color {
+    /// [`Integrator::trace_primary`] for a camera ray whose hit is already `found`
+    /// (by [`World::closest_among`], say), with the shadow rays to light `i` testing
+    /// only `blockers[i]` where that is given ([`World::may_shadow`]): the same colour.
+    pub fn shade_primary(
+        &self,
+        ray: &Ray,
+        found: &Option<(Hit, u32)>,
+        blockers: &[Option<Vec<u32>>],
+        stats: &mut RayStats,
+    ) -> Color {
         stats.primary += 1;
-        let found = self.world.closest_among(seen, ray, 0.0, f32::INFINITY);
-        self.shade(ray, &found, 1, stats)
+        self.shade(ray, found, 1, blockers, stats)
     }
 
     /// The colour seen along `ray`, the `depth`-th ray of its chain.
@@ -58,7 +64,7 @@ impl<'w, 's> Integrator<'w, 's> {
         // Borrowed where `closest` wrote it: copying it out would read it back wider
         // than it was stored, which stalls store forwarding.
         let found = self.world.closest(ray, 0.0, f32::INFINITY);
-        self.shade(ray, &found, depth, stats)
+        self.shade(ray, &found, depth, &[], stats)
     }
 
     /// The colour of what `ray` found (`None`: the background).
@@ -68,7 +74,14 @@ impl<'w, 's> Integrator<'w, 's> {
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
     #[inline(always)]
-    fn shade(&self, ray: &Ray, found: &Option<(Hit, u32)>, depth: u32, stats: &mut RayStats) -> Color {
+    fn shade(
+        &self,
+        ray: &Ray,
+        found: &Option<(Hit, u32)>,
+        depth: u32,
+        blockers: &[Option<Vec<u32>>],
+        stats: &mut RayStats,
+    ) -> Color {
         let Some((hit, index)) = found else {
             return self.background;
         };
@@ -97,7 +110,7 @@ impl<'w, 's> Integrator<'w, 's> {
             // Lights act through the diffuse term and the highlight only: a black texel
             // (the ceiling's dark squares) without a highlight needs no shadow rays.
             if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
-                for light in &scene.lights {
+                for (i, light) in scene.lights.iter().enumerate() {
                     let to_light = light.position - lit_from;
                     let distance = to_light.length();
                     let l = to_light / distance;
@@ -106,7 +119,11 @@ impl<'w, 's> Integrator<'w, 's> {
                         continue; // the light is behind the surface
                     }
                     stats.shadow += 1;
-                    let visible = self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance);
+                    let shadow = Ray { origin: lit_from, dir: l };
+                    let visible = match blockers.get(i) {
+                        Some(Some(few)) => self.world.transmittance_among(few, &shadow, distance),
+                        _ => self.world.transmittance(&shadow, distance),
+                    };
                     if visible == 0.0 {
                         continue;
                     }
