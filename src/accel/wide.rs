@@ -8,7 +8,7 @@ use crate::math::{Ray, Vec3};
 use glam::Vec4;
 
 /// A node of up to four children: their boxes, lane by lane, and for each a packed
-/// reference (see [`pack`]) to an inner node or a leaf's run of primitives in leaf
+/// reference (see `pack` below) to an inner node or a leaf's run of primitives in leaf
 /// order. An unused slot has an empty box, so rays never enter it. 128 bytes: two cache
 /// lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
