@@ -20,8 +20,8 @@ pub use wide::{Bvh4, WideBvh};
 
 use crate::geometry::{Hit, Mesh, Shape, part};
 use crate::math::{Aabb, Ray, Vec2, Vec3};
-use glam::DVec3;
 use crate::scene::Scene;
+use glam::DVec3;
 use sphere4::Sphere4;
 use std::time::{Duration, Instant};
 use tri4::{Ray4, Tri4};
@@ -426,7 +426,8 @@ impl<'s> World<'s> {
                 let side = |x: DVec3| n.dot(x) - d;
                 let others = union(Some(i as u32));
                 let (lo, hi) = margin(others);
-                let corners = (0..8).map(|k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][k >> 1 & 1], [lo.z, hi.z][k >> 2]));
+                let corners =
+                    (0..8).map(|k| DVec3::new([lo.x, hi.x][k & 1], [lo.y, hi.y][k >> 1 & 1], [lo.z, hi.z][k >> 2]));
                 let l = side(light);
                 let tol = 1e-3 * (1.0 + n.abs().dot(light.abs()) + d.abs());
                 if others.min.x > others.max.x || (l.abs() > tol && corners.into_iter().all(|c| side(c) * l > 0.0)) {
@@ -651,7 +652,9 @@ mod tests {
             let mut scene = random_scene(seed, 12);
             // Walls too: quads are culled by their planes.
             let wall = scene.objects[0].material;
-            for (c, u, v) in [(Vec3::new(-30.0, -30.0, -30.0), Vec3::X, Vec3::Y), (Vec3::new(-30.0, -30.0, -30.0), Vec3::Z, Vec3::X)] {
+            for (c, u, v) in
+                [(Vec3::new(-30.0, -30.0, -30.0), Vec3::X, Vec3::Y), (Vec3::new(-30.0, -30.0, -30.0), Vec3::Z, Vec3::X)]
+            {
                 scene.add(Quad::new(c, u * 60.0, v * 60.0), wall);
             }
             let mut r = Rng::new(seed + 7);
@@ -668,7 +671,8 @@ mod tests {
                 }
                 let mut found = Vec::new();
                 let mut boxes: Vec<(u32, Aabb)> = Vec::new();
-                for (sx, sy) in (0..8).flat_map(|j| (0..8).map(move |i| (i as f32 * 0.5 + 0.25, j as f32 * 0.5 + 0.25))) {
+                for (sx, sy) in (0..8).flat_map(|j| (0..8).map(move |i| (i as f32 * 0.5 + 0.25, j as f32 * 0.5 + 0.25)))
+                {
                     let ray = rig.ray(x0 + sx, y0 + sy);
                     if let Some((h, i)) = world.closest_among(&seen, &ray, 0.0, f32::INFINITY) {
                         match boxes.iter_mut().find(|(o, _)| *o == i) {
@@ -694,14 +698,20 @@ mod tests {
                             continue; // shading sends no shadow ray
                         }
                         let shadow = Ray { origin: from, dir: to };
-                        let (want, got) = (world.transmittance(&shadow, distance), world.transmittance_among(&few, &shadow, distance));
+                        let (want, got) = (
+                            world.transmittance(&shadow, distance),
+                            world.transmittance_among(&few, &shadow, distance),
+                        );
                         assert_eq!(got.to_bits(), want.to_bits(), "seed {seed}, tile ({tx}, {ty}), light {light}");
                         checked += 1;
                     }
                 }
             }
         }
-        assert!(checked > 5000 && culled_lists > 100 && dropped > 500, "{checked} rays, {culled_lists} lists, {dropped} dropped");
+        assert!(
+            checked > 5000 && culled_lists > 100 && dropped > 500,
+            "{checked} rays, {culled_lists} lists, {dropped} dropped"
+        );
     }
 
     #[test]
