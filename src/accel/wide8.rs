@@ -91,16 +91,11 @@ impl Bvh8 {
                 }
             } else {
                 let n = &self.nodes[index as usize];
-                let (near, mut hit) = enter!(&r, n, t_min, *t_max);
-                if !ORDERED && hit != 0 {
-                    // Any hit will do: no order to keep. Go on into the last child,
-                    // stack the others.
-                    let last = 31 - hit.leading_zeros() as usize;
-                    hit &= !(1 << last);
-                    while hit != 0 {
-                        let lane = hit.trailing_zeros() as usize;
-                        hit &= hit - 1;
-                        let entry = (n.packed[lane], near[lane]);
+                // Stacks child `lane`, entered at distance `d`, and starts loading it (a
+                // nested walk takes it when the stack is full).
+                macro_rules! stack_child {
+                    ($lane:expr, $d:expr) => {
+                        let entry = (n.packed[$lane], $d);
                         match unpack(entry.0) {
                             (child, 0) => prefetch(&self.nodes[child as usize]),
                             (first, _) => super::wide::prefetch_items(items, first as usize),
@@ -111,6 +106,18 @@ impl Bvh8 {
                         } else if !self.walk::<ORDERED, T>(ray, entry, t_min, t_max, items, leaf) {
                             return false;
                         }
+                    };
+                }
+                let (near, mut hit) = enter!(&r, n, t_min, *t_max);
+                if !ORDERED && hit != 0 {
+                    // Any hit will do: no order to keep. Go on into the last child,
+                    // stack the others.
+                    let last = 31 - hit.leading_zeros() as usize;
+                    hit &= !(1 << last);
+                    while hit != 0 {
+                        let lane = hit.trailing_zeros() as usize;
+                        hit &= hit - 1;
+                        stack_child!(lane, near[lane]);
                     }
                     current = (n.packed[last], near[last]);
                     continue 'visit;
@@ -134,17 +141,7 @@ impl Bvh8 {
                         k += 1;
                     }
                     for &(d, lane) in &order[..k - 1] {
-                        let entry = (n.packed[lane], d);
-                        match unpack(entry.0) {
-                            (child, 0) => prefetch(&self.nodes[child as usize]),
-                            (first, _) => super::wide::prefetch_items(items, first as usize),
-                        }
-                        if sp < STACK {
-                            stack[sp] = entry;
-                            sp += 1;
-                        } else if !self.walk::<ORDERED, T>(ray, entry, t_min, t_max, items, leaf) {
-                            return false;
-                        }
+                        stack_child!(lane, d);
                     }
                     let (d, lane) = order[k - 1];
                     current = (n.packed[lane], d);
