@@ -600,6 +600,22 @@ mod tests {
         scene
     }
 
+    /// Calls `f((tx, ty), (x0, y0), seen)` for each 4 x 4 pixel tile of the scene's
+    /// image whose cone of camera rays culls the objects to `seen`.
+    fn culled_tiles(world: &World, rig: &crate::camera::CameraRig, mut f: impl FnMut((u32, u32), (f32, f32), &[u32])) {
+        let camera = world.scene().camera;
+        let mut seen = Vec::new();
+        for (ty, tx) in
+            (0..camera.height.div_ceil(4)).flat_map(|ty| (0..camera.width.div_ceil(4)).map(move |tx| (ty, tx)))
+        {
+            let (x0, y0) = (tx as f32 * 4.0, ty as f32 * 4.0);
+            let (apex, edges) = rig.cone(x0, y0, x0 + 4.0, y0 + 4.0);
+            if world.seen_from(apex, edges, &mut seen) {
+                f((tx, ty), (x0, y0), &seen);
+            }
+        }
+    }
+
     #[test]
     fn camera_rays_through_a_tile_test_only_what_its_cone_sees_and_find_the_same() {
         // Small random scenes seen by cameras from outside and from inside; every
@@ -613,13 +629,7 @@ mod tests {
             scene.camera = Camera::new(eye, v(&mut r, 5.0), Vec3::Y, 30.0 + 60.0 * r.next_f32(), 32, 24);
             let world = World::new(&scene, AccelKind::Bvh);
             let rig = scene.camera.rig().unwrap();
-            let mut seen = Vec::new();
-            for (ty, tx) in (0..6).flat_map(|ty| (0..8).map(move |tx| (ty, tx))) {
-                let (x0, y0) = (tx as f32 * 4.0, ty as f32 * 4.0);
-                let (apex, edges) = rig.cone(x0, y0, x0 + 4.0, y0 + 4.0);
-                if !world.seen_from(apex, edges, &mut seen) {
-                    continue;
-                }
+            culled_tiles(&world, &rig, |(tx, ty), (x0, y0), seen| {
                 culled += 1;
                 dropped += scene.objects.len() - seen.len();
                 assert!(seen.windows(2).all(|w| w[0] < w[1]));
@@ -630,7 +640,7 @@ mod tests {
                     assert_eq!(got, want, "seed {seed}, tile ({tx}, {ty}), at ({sx}, {sy})");
                     hits += want.is_some() as u32;
                 }
-            }
+            });
         }
         assert!(culled > 100 && hits > 1000 && dropped > 1000, "{culled} tiles, {hits} hits, {dropped} objects culled");
         // Not for big scenes, nor without a tree.
@@ -662,13 +672,7 @@ mod tests {
             let lights: Vec<Vec3> = (0..4).map(|_| v(&mut r, 28.0)).collect();
             let world = World::new(&scene, AccelKind::Bvh);
             let rig = scene.camera.rig().unwrap();
-            let mut seen = Vec::new();
-            for (ty, tx) in (0..4).flat_map(|ty| (0..6).map(move |tx| (ty, tx))) {
-                let (x0, y0) = (tx as f32 * 4.0, ty as f32 * 4.0);
-                let (apex, edges) = rig.cone(x0, y0, x0 + 4.0, y0 + 4.0);
-                if !world.seen_from(apex, edges, &mut seen) {
-                    continue;
-                }
+            culled_tiles(&world, &rig, |(tx, ty), (x0, y0), seen| {
                 let mut found = Vec::new();
                 let mut boxes: Vec<(u32, Aabb)> = Vec::new();
                 for (sx, sy) in (0..8).flat_map(|j| (0..8).map(move |i| (i as f32 * 0.5 + 0.25, j as f32 * 0.5 + 0.25)))
@@ -706,7 +710,7 @@ mod tests {
                         checked += 1;
                     }
                 }
-            }
+            });
         }
         assert!(
             checked > 5000 && culled_lists > 100 && dropped > 500,
