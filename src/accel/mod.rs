@@ -636,7 +636,7 @@ mod tests {
                 for (sx, sy) in (0..=8).flat_map(|j| (0..=8).map(move |i| (i as f32 * 0.5, j as f32 * 0.5))) {
                     let ray = rig.ray(x0 + sx, y0 + sy);
                     let want = world.closest(&ray, 0.0, f32::INFINITY);
-                    let got = world.closest_among(&seen, &ray, 0.0, f32::INFINITY);
+                    let got = world.closest_among(seen, &ray, 0.0, f32::INFINITY);
                     assert_eq!(got, want, "seed {seed}, tile ({tx}, {ty}), at ({sx}, {sy})");
                     hits += want.is_some() as u32;
                 }
@@ -678,7 +678,7 @@ mod tests {
                 for (sx, sy) in (0..8).flat_map(|j| (0..8).map(move |i| (i as f32 * 0.5 + 0.25, j as f32 * 0.5 + 0.25)))
                 {
                     let ray = rig.ray(x0 + sx, y0 + sy);
-                    if let Some((h, i)) = world.closest_among(&seen, &ray, 0.0, f32::INFINITY) {
+                    if let Some((h, i)) = world.closest_among(seen, &ray, 0.0, f32::INFINITY) {
                         match boxes.iter_mut().find(|(o, _)| *o == i) {
                             Some((_, b)) => *b = b.grow(ray.at(h.t)),
                             None => boxes.push((i, Aabb::EMPTY.grow(ray.at(h.t)))),
