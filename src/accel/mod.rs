@@ -94,7 +94,7 @@ impl MeshBvh {
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let r4 = Ray4::new(ray);
         let mut best: Option<Hit> = None;
-        self.tree.traverse(ray, t_min, t_max, &self.packs, |range, mut t_cur| {
+        self.tree.traverse::<true, _>(ray, t_min, t_max, &self.packs, |range, mut t_cur| {
             for pack in &self.packs[range] {
                 // Once something is hit the bound is inclusive, so an equally distant
                 // triangle with a lower id wins, as when every triangle is tested in order.
@@ -119,7 +119,7 @@ impl MeshBvh {
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let r4 = Ray4::new(ray);
         let mut hit = false;
-        self.tree.traverse_any(ray, t_min, t_max, &self.packs, |range, t_cur| {
+        self.tree.traverse::<false, _>(ray, t_min, t_max, &self.packs, |range, t_cur| {
             if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
                 hit = true;
                 Visit::Stop
@@ -270,11 +270,7 @@ impl<'s> World<'s> {
             }
             Visit::Continue(t_cur)
         };
-        if NEAREST_FIRST {
-            self.top4.traverse(ray, t_min, t_max, &self.leaves, leaf)
-        } else {
-            self.top4.traverse_any(ray, t_min, t_max, &self.leaves, leaf)
-        }
+        self.top4.traverse::<NEAREST_FIRST, _>(ray, t_min, t_max, &self.leaves, leaf)
     }
 
     #[inline]

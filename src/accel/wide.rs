@@ -462,10 +462,11 @@ impl WideBvh {
         }
     }
 
-    /// See [`Bvh4::traverse`]; `items` are what leaf ranges index, so that the walk can
-    /// start loading a leaf's items when it stacks the leaf.
+    /// See [`Bvh4::traverse`] (`ORDERED`, nearest first) and [`Bvh4::traverse_any`];
+    /// `items` are what leaf ranges index, so that the walk can start loading a leaf's
+    /// items when it stacks the leaf.
     #[inline]
-    pub fn traverse<T>(
+    pub fn traverse<const ORDERED: bool, T>(
         &self,
         ray: &Ray,
         t_min: f32,
@@ -474,26 +475,9 @@ impl WideBvh {
         leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
     ) {
         match self {
-            WideBvh::Four(t) => t.start::<true, T>(ray, t_min, t_max, items, leaf),
+            WideBvh::Four(t) => t.start::<ORDERED, T>(ray, t_min, t_max, items, leaf),
             #[cfg(target_arch = "x86_64")]
-            WideBvh::Eight(t) => t.start::<true, T>(ray, t_min, t_max, items, leaf),
-        }
-    }
-
-    /// See [`Bvh4::traverse_any`] and [`WideBvh::traverse`].
-    #[inline]
-    pub fn traverse_any<T>(
-        &self,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-        items: &[T],
-        leaf: impl FnMut(std::ops::Range<usize>, f32) -> Visit,
-    ) {
-        match self {
-            WideBvh::Four(t) => t.start::<false, T>(ray, t_min, t_max, items, leaf),
-            #[cfg(target_arch = "x86_64")]
-            WideBvh::Eight(t) => t.start::<false, T>(ray, t_min, t_max, items, leaf),
+            WideBvh::Eight(t) => t.start::<ORDERED, T>(ray, t_min, t_max, items, leaf),
         }
     }
 }
