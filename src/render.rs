@@ -5,8 +5,9 @@
 use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError};
 use crate::film::Image;
+use crate::geometry::Hit;
 use crate::integrator::{Integrator, RayStats};
-use crate::math::{Aabb, Color, Vec2};
+use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -205,67 +206,58 @@ impl<'s> Renderer<'s> {
                 let mut stats = RayStats::default();
                 let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 let mut samples: Vec<Vec2> = Vec::with_capacity(self.spp as usize);
+                let mut found: Vec<(Ray, Option<(Hit, u32)>)> =
+                    Vec::with_capacity(pixels.capacity() * self.spp.max(1) as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let mut rng = Rng::for_pixel(x, y, 0);
+                        pixel_samples(self.spp, &mut rng, &mut samples);
+                        found.extend(samples.iter().map(|s| (rig.ray(x as f32 + s.x, y as f32 + s.y), None)));
+                    }
+                }
+                // In a small scene the tile's camera rays test only the objects its cone
+                // of rays meets (samples stay inside their pixels), and their hits are
+                // all found first, so that the shadow rays from them test only the
+                // objects that can stand between those hits and each light.
                 let mut seen = Vec::new();
                 let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
-                if world.seen_from(apex, edges, &mut seen) {
-                    // A small scene: the tile's camera rays test only the objects its
-                    // cone of rays meets (samples stay inside their pixels). All hits
-                    // are found first, so that the shadow rays from them test only the
-                    // objects that can stand between those hits and each light.
-                    let mut found = Vec::with_capacity(((x1 - x0) * (y1 - y0) * self.spp) as usize);
+                let culled = world.seen_from(apex, edges, &mut seen);
+                let mut blockers: Vec<Option<Vec<u32>>> = Vec::new();
+                if culled {
                     // Per object hit, a box round its hit points.
                     let mut hits: Vec<(u32, Aabb)> = Vec::with_capacity(seen.len());
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            let mut rng = Rng::for_pixel(x, y, 0);
-                            pixel_samples(self.spp, &mut rng, &mut samples);
-                            for s in &samples {
-                                let ray = rig.ray(x as f32 + s.x, y as f32 + s.y);
-                                // Found in place: copied out of a return value, the hit
-                                // was read back wider than written (a store-forwarding stall).
-                                found.push((ray, None));
-                                let (ray, hit) = found.last_mut().expect("just pushed");
-                                *hit = world.closest_among(&seen, ray, 0.0, f32::INFINITY);
-                                if let Some((h, i)) = hit {
-                                    match hits.iter_mut().find(|(o, _)| o == i) {
-                                        Some((_, b)) => *b = b.grow(ray.at(h.t)),
-                                        None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
-                                    }
-                                }
+                    for (ray, hit) in &mut found {
+                        // Found in place: copied out of a return value, the hit was read
+                        // back wider than written (a store-forwarding stall).
+                        *hit = world.closest_among(&seen, ray, 0.0, f32::INFINITY);
+                        if let Some((h, i)) = hit {
+                            match hits.iter_mut().find(|(o, _)| o == i) {
+                                Some((_, b)) => *b = b.grow(ray.at(h.t)),
+                                None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
                             }
                         }
                     }
                     // One-sided shading may send a shadow ray from a surface's back
                     // through the surface itself, which the culling assumes it does not.
                     let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
-                    let blockers: Vec<Option<Vec<u32>>> = lights
+                    blockers = lights
                         .iter()
                         .map(|l| {
                             let mut few = Vec::new();
-                            let ok = world.may_shadow(&hits, l.position, &mut few);
-                            ok.then_some(few)
+                            world.may_shadow(&hits, l.position, &mut few).then_some(few)
                         })
                         .collect();
-                    for pixel in found.chunks(samples.len()) {
-                        let mut sum = Color::ZERO;
-                        for (ray, hit) in pixel {
-                            sum += integrator.shade_primary(ray, hit, &blockers, &mut stats);
-                        }
-                        pixels.push(sum / samples.len() as f32);
+                }
+                for pixel in found.chunks(samples.len()) {
+                    let mut sum = Color::ZERO;
+                    for (ray, hit) in pixel {
+                        sum += if culled {
+                            integrator.shade_primary(ray, hit, &blockers, &mut stats)
+                        } else {
+                            integrator.trace_primary(ray, &mut stats)
+                        };
                     }
-                } else {
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            let mut rng = Rng::for_pixel(x, y, 0);
-                            pixel_samples(self.spp, &mut rng, &mut samples);
-                            let mut sum = Color::ZERO;
-                            for s in &samples {
-                                let ray = rig.ray(x as f32 + s.x, y as f32 + s.y);
-                                sum += integrator.trace_primary(&ray, &mut stats);
-                            }
-                            pixels.push(sum / samples.len() as f32);
-                        }
-                    }
+                    pixels.push(sum / samples.len() as f32);
                 }
                 progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 Some((pixels, stats))

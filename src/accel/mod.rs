@@ -295,16 +295,7 @@ impl<'s> World<'s> {
     pub fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
         let mut best: Option<(Hit, u32)> = None;
         if self.flat {
-            let (mut t_max, mut b, mut index) = (t_max, Hit { t: 0.0, uv: Vec2::ZERO, part: 0, prim: 0 }, NONE);
-            for i in 0..self.scene.objects.len() {
-                if let Some(h) = self.intersect_object(i, ray, t_min, t_max) {
-                    t_max = h.t;
-                    (b.t, b.uv, b.part, b.prim, index) = (h.t, h.uv, h.part, h.prim, i as u32);
-                }
-            }
-            if index != NONE {
-                best = Some((b, index));
-            }
+            best = self.closest_of(0..self.scene.objects.len() as u32, ray, t_min, t_max);
         } else {
             let r4 = Ray4::new(ray);
             // The best hit so far field by field, not as an `Option<(Hit, u32)>`: written
@@ -453,8 +444,14 @@ impl<'s> World<'s> {
     /// shadow rays no other object can block ([`World::may_shadow`]).
     #[inline]
     pub fn transmittance_among(&self, ids: &[u32], ray: &Ray, t_max: f32) -> f32 {
+        self.transmittance_of(ids.iter().copied(), ray, t_max)
+    }
+
+    /// Testing objects `ids` one by one, in the order given.
+    #[inline(always)]
+    fn transmittance_of(&self, ids: impl IntoIterator<Item = u32>, ray: &Ray, t_max: f32) -> f32 {
         let mut light = 1.0f64;
-        for &i in ids {
+        for i in ids {
             if self.blocks(i as usize, ray, t_max) {
                 light *= self.transmission[i as usize] as f64;
                 if light == 0.0 {
@@ -469,9 +466,16 @@ impl<'s> World<'s> {
     /// reach no others ([`World::seen_from`]), the same answer without the tree.
     #[inline(always)]
     pub fn closest_among(&self, ids: &[u32], ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
+        self.closest_of(ids.iter().copied(), ray, t_min, t_max)
+    }
+
+    /// Testing objects `ids` one by one, in the order given; the first of equally near
+    /// hits wins.
+    #[inline(always)]
+    fn closest_of(&self, ids: impl IntoIterator<Item = u32>, ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
         // Field by field, as in `closest`.
         let (mut t_max, mut best, mut index) = (t_max, Hit { t: 0.0, uv: Vec2::ZERO, part: 0, prim: 0 }, NONE);
-        for &i in ids {
+        for i in ids {
             if let Some(h) = self.intersect_object(i as usize, ray, t_min, t_max) {
                 t_max = h.t;
                 (best.t, best.uv, best.part, best.prim, index) = (h.t, h.uv, h.part, h.prim, i);
@@ -487,44 +491,36 @@ impl<'s> World<'s> {
     /// f64 so that the order objects are met in does not change the f32 result.
     #[inline]
     pub fn transmittance(&self, ray: &Ray, t_max: f32) -> f32 {
-        let mut light = 1.0f64;
         if self.flat {
-            for i in 0..self.scene.objects.len() {
-                if self.blocks(i, ray, t_max) {
-                    light *= self.transmission[i] as f64;
-                    if light == 0.0 {
-                        return 0.0;
-                    }
-                }
-            }
-        } else {
-            let r4 = Ray4::new(ray);
-            self.traverse_objects::<false>(ray, 0.0, t_max, |item, _| {
-                let mut pass = |i: u32| {
-                    light *= self.transmission[i as usize] as f64;
-                    light != 0.0
-                };
-                match *item {
-                    LeafItem::Spheres(ref pack) => {
-                        let mut blocked = pack.intersect(&r4, 0.0, t_max).0;
-                        while blocked != 0 {
-                            let lane = blocked.trailing_zeros() as usize;
-                            blocked &= blocked - 1;
-                            if !pass(pack.ids[lane]) {
-                                return Visit::Stop;
-                            }
-                        }
-                    }
-                    LeafItem::Other(i) => {
-                        if self.blocks(i as usize, ray, t_max) && !pass(i) {
+            return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
+        }
+        let mut light = 1.0f64;
+        let r4 = Ray4::new(ray);
+        self.traverse_objects::<false>(ray, 0.0, t_max, |item, _| {
+            let mut pass = |i: u32| {
+                light *= self.transmission[i as usize] as f64;
+                light != 0.0
+            };
+            match *item {
+                LeafItem::Spheres(ref pack) => {
+                    let mut blocked = pack.intersect(&r4, 0.0, t_max).0;
+                    while blocked != 0 {
+                        let lane = blocked.trailing_zeros() as usize;
+                        blocked &= blocked - 1;
+                        if !pass(pack.ids[lane]) {
                             return Visit::Stop;
                         }
                     }
                 }
-                // Every object along the whole segment counts, not just the nearest.
-                Visit::Continue(t_max)
-            })
-        }
+                LeafItem::Other(i) => {
+                    if self.blocks(i as usize, ray, t_max) && !pass(i) {
+                        return Visit::Stop;
+                    }
+                }
+            }
+            // Every object along the whole segment counts, not just the nearest.
+            Visit::Continue(t_max)
+        });
         light as f32
     }
 }
