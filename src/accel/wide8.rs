@@ -131,11 +131,9 @@ impl Bvh8 {
                         hit &= hit - 1;
                         let d = near[lane];
                         let mut j = k;
-                        if ORDERED {
-                            while j > 0 && order[j - 1].0 < d {
-                                order[j] = order[j - 1];
-                                j -= 1;
-                            }
+                        while j > 0 && order[j - 1].0 < d {
+                            order[j] = order[j - 1];
+                            j -= 1;
                         }
                         order[j] = (d, lane);
                         k += 1;
