@@ -3,7 +3,7 @@
 //! the image is the same for any thread count.
 
 use crate::accel::{AccelKind, World};
-use crate::camera::{Camera, CameraError};
+use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::geometry::Hit;
 use crate::integrator::{Integrator, RayStats};
@@ -17,6 +17,17 @@ use std::time::{Duration, Instant};
 /// Tile edge in pixels: small enough to balance load across threads, big enough that
 /// per-tile overhead vanishes.
 const TILE: u32 = 16;
+
+/// What a render task keeps from one tile to the next, so that tiles allocate nothing.
+#[derive(Default)]
+struct TileBuffers {
+    pixels: Vec<Color>,
+    samples: Vec<Vec2>,
+    found: Vec<(Ray, Option<(Hit, u32)>)>,
+    seen: Vec<u32>,
+    hits: Vec<(u32, Aabb)>,
+    blockers: Vec<Option<Vec<u32>>>,
+}
 
 /// A configured render of one scene. Settings start from the scene's own and can be
 /// overridden one by one.
@@ -191,88 +202,38 @@ impl<'s> Renderer<'s> {
             return self.render_corners(&rig, &integrator, progress, cancel, start);
         }
 
-        let tiles_x = self.width.div_ceil(TILE);
-        let tiles_y = self.height.div_ceil(TILE);
-        let total = (tiles_x * tiles_y) as usize;
+        let (width, tiles_x) = (self.width as usize, self.width.div_ceil(TILE));
+        let total = (tiles_x * self.height.div_ceil(TILE)) as usize;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let tiles: Vec<(Vec<Color>, RayStats)> = (0..total)
-            .into_par_iter()
-            .map(|t| {
-                if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                    return None;
-                }
-                let (x0, y0) = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
-                let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
+        let mut image = Image::new(self.width, self.height);
+        // A band of tiles, TILE rows of the image, per task: tiles write their pixels
+        // straight into the image, and a band's buffers serve all its tiles.
+        let bands: Vec<RayStats> = image
+            .pixels_mut()
+            .par_chunks_mut(TILE as usize * width)
+            .enumerate()
+            .map(|(band, rows)| {
                 let mut stats = RayStats::default();
-                let mut pixels = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                let mut samples: Vec<Vec2> = Vec::with_capacity(self.spp as usize);
-                let mut found: Vec<(Ray, Option<(Hit, u32)>)> =
-                    Vec::with_capacity(pixels.capacity() * self.spp.max(1) as usize);
-                for y in y0..y1 {
-                    for x in x0..x1 {
-                        let mut rng = Rng::for_pixel(x, y, 0);
-                        pixel_samples(self.spp, &mut rng, &mut samples);
-                        found.extend(samples.iter().map(|s| (rig.ray(x as f32 + s.x, y as f32 + s.y), None)));
+                let mut tile = TileBuffers::default();
+                let (y0, y1) = (band as u32 * TILE, (band as u32 * TILE + TILE).min(self.height));
+                for x0 in (0..self.width).step_by(TILE as usize) {
+                    if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                        return None;
                     }
-                }
-                // In a small scene the tile's camera rays test only the objects its cone
-                // of rays meets (samples stay inside their pixels), and their hits are
-                // all found first, so that the shadow rays from them test only the
-                // objects that can stand between those hits and each light.
-                let mut seen = Vec::new();
-                let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
-                let culled = world.seen_from(apex, edges, &mut seen);
-                let mut blockers: Vec<Option<Vec<u32>>> = Vec::new();
-                if culled {
-                    // Per object hit, a box round its hit points.
-                    let mut hits: Vec<(u32, Aabb)> = Vec::with_capacity(seen.len());
-                    for (ray, hit) in &mut found {
-                        // Found in place: copied out of a return value, the hit was read
-                        // back wider than written (a store-forwarding stall).
-                        *hit = world.closest_among(&seen, ray, 0.0, f32::INFINITY);
-                        if let Some((h, i)) = hit {
-                            match hits.iter_mut().find(|(o, _)| o == i) {
-                                Some((_, b)) => *b = b.grow(ray.at(h.t)),
-                                None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
-                            }
-                        }
+                    let x1 = (x0 + TILE).min(self.width);
+                    self.render_tile(world, &rig, &integrator, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
+                        let at = y * width + x0 as usize;
+                        rows[at..at + row.len()].copy_from_slice(row);
                     }
-                    // One-sided shading may send a shadow ray from a surface's back
-                    // through the surface itself, which the culling assumes it does not.
-                    let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
-                    blockers = lights
-                        .iter()
-                        .map(|l| {
-                            let mut few = Vec::new();
-                            world.may_shadow(&hits, l.position, &mut few).then_some(few)
-                        })
-                        .collect();
+                    progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 }
-                for pixel in found.chunks(samples.len()) {
-                    let mut sum = Color::ZERO;
-                    for (ray, hit) in pixel {
-                        sum += if culled {
-                            integrator.shade_primary(ray, hit, &blockers, &mut stats)
-                        } else {
-                            integrator.trace_primary(ray, &mut stats)
-                        };
-                    }
-                    pixels.push(sum / samples.len() as f32);
-                }
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-                Some((pixels, stats))
+                Some(stats)
             })
             .collect::<Option<_>>()?;
-
-        let mut image = Image::new(self.width, self.height);
         let mut stats = RayStats::default();
-        for (t, (pixels, s)) in tiles.into_iter().enumerate() {
+        for s in bands {
             stats += s;
-            let (x0, y0) = ((t as u32 % tiles_x) * TILE, (t as u32 / tiles_x) * TILE);
-            let w = (x0 + TILE).min(self.width) - x0;
-            for (i, c) in pixels.into_iter().enumerate() {
-                image.set(x0 + i as u32 % w, y0 + i as u32 / w, c);
-            }
         }
         Some(RenderOutput {
             image,
@@ -284,11 +245,76 @@ impl<'s> Renderer<'s> {
         })
     }
 
+    /// Traces the pixels of one tile, `(x0, y0)` to `(x1, y1)` exclusive, into
+    /// `buf.pixels` row by row.
+    fn render_tile(
+        &self,
+        world: &World,
+        rig: &CameraRig,
+        integrator: &Integrator,
+        (x0, y0, x1, y1): (u32, u32, u32, u32),
+        buf: &mut TileBuffers,
+        stats: &mut RayStats,
+    ) {
+        let TileBuffers { pixels, samples, found, seen, hits, blockers } = buf;
+        pixels.clear();
+        found.clear();
+        for y in y0..y1 {
+            for x in x0..x1 {
+                // One sample needs no random numbers: it goes through the pixel centre.
+                if self.spp > 1 || samples.is_empty() {
+                    pixel_samples(self.spp, &mut Rng::for_pixel(x, y, 0), samples);
+                }
+                found.extend(samples.iter().map(|s| (rig.ray(x as f32 + s.x, y as f32 + s.y), None)));
+            }
+        }
+        // In a small scene the tile's camera rays test only the objects its cone of
+        // rays meets (samples stay inside their pixels), and their hits are all found
+        // first, so that the shadow rays from them test only the objects that can stand
+        // between those hits and each light.
+        let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
+        let culled = world.seen_from(apex, edges, seen);
+        blockers.clear();
+        if culled {
+            // Per object hit, a box round its hit points.
+            hits.clear();
+            for (ray, hit) in found.iter_mut() {
+                // Found in place: copied out of a return value, the hit was read back
+                // wider than written (a store-forwarding stall).
+                *hit = world.closest_among(seen, ray, 0.0, f32::INFINITY);
+                if let Some((h, i)) = hit {
+                    match hits.iter_mut().find(|(o, _)| o == i) {
+                        Some((_, b)) => *b = b.grow(ray.at(h.t)),
+                        None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
+                    }
+                }
+            }
+            // One-sided shading may send a shadow ray from a surface's back through
+            // the surface itself, which the culling assumes it does not.
+            let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
+            blockers.extend(lights.iter().map(|l| {
+                let mut few = Vec::new();
+                world.may_shadow(hits, l.position, &mut few).then_some(few)
+            }));
+        }
+        for pixel in found.chunks(samples.len()) {
+            let mut sum = Color::ZERO;
+            for (ray, hit) in pixel {
+                sum += if culled {
+                    integrator.shade_primary(ray, hit, blockers, stats)
+                } else {
+                    integrator.trace_primary(ray, stats)
+                };
+            }
+            pixels.push(sum / samples.len() as f32);
+        }
+    }
+
     /// Corner sampling: rows of corner rays traced in parallel, each ray once, then
     /// averaged four at a time. `progress` counts rows.
     fn render_corners(
         &self,
-        rig: &crate::camera::CameraRig,
+        rig: &CameraRig,
         integrator: &Integrator,
         progress: &(dyn Fn(usize, usize) + Sync),
         cancel: Option<&AtomicBool>,

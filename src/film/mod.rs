@@ -43,6 +43,11 @@ impl Image {
         self.pixels[y as usize * self.width as usize + x as usize] = c;
     }
 
+    /// All pixels, row after row: renderers fill bands of rows in parallel.
+    pub fn pixels_mut(&mut self) -> &mut [Color] {
+        &mut self.pixels
+    }
+
     /// 8-bit RGB, clamped, without gamma: the original wrote its colours to the screen
     /// as they were, and the POV-Ray reference does the same (`File_Gamma=1.0`).
     pub fn to_rgb8(&self) -> image::RgbImage {
