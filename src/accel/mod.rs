@@ -94,24 +94,34 @@ impl MeshBvh {
     fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let r4 = Ray4::new(ray);
         let mut best: Option<Hit> = None;
-        self.tree.traverse::<true, _>(ray, t_min, t_max, &self.packs, |range, mut t_cur| {
-            for pack in &self.packs[range] {
+        self.tree.traverse::<true, _>(
+            ray,
+            t_min,
+            t_max,
+            &self.packs,
+            #[inline(always)]
+            |range, mut t_cur| {
                 // Once something is hit the bound is inclusive, so an equally distant
                 // triangle with a lower id wins, as when every triangle is tested in order.
-                let limit = if best.is_some() { t_cur.next_up() } else { t_cur };
-                let (mut mask, t, b1, b2) = pack.intersect(&r4, t_min, limit);
-                while mask != 0 {
-                    let lane = mask.trailing_zeros() as usize;
-                    mask &= mask - 1;
-                    let id = pack.ids[lane];
-                    if best.as_ref().is_none_or(|b| t[lane] < b.t || (t[lane] == b.t && id < b.prim)) {
-                        t_cur = t[lane];
-                        best = Some(Hit { t: t[lane], uv: Vec2::new(b1[lane], b2[lane]), part: part::SIDE, prim: id });
-                    }
+                #[cfg(target_arch = "x86_64")]
+                if self.tree.width() == 8 && range.len() == 2 {
+                    let limit = if best.is_some() { t_cur.next_up() } else { t_cur };
+                    let (a, b) = (&self.packs[range.start], &self.packs[range.start + 1]);
+                    // SAFETY: the 8-wide tree exists only where the processor has AVX2.
+                    #[allow(unsafe_code)]
+                    let (mask, t, b1, b2) = unsafe { tri4::intersect_pair(a, b, &r4, t_min, limit) };
+                    let id = |lane: usize| if lane < 4 { a.ids[lane] } else { b.ids[lane - 4] };
+                    return Visit::Continue(keep_nearest(mask, &t, &b1, &b2, id, &mut best, t_cur));
                 }
-            }
-            Visit::Continue(t_cur)
-        });
+                for pack in &self.packs[range] {
+                    let limit = if best.is_some() { t_cur.next_up() } else { t_cur };
+                    let (mask, t, b1, b2) = pack.intersect(&r4, t_min, limit);
+                    let (t, b1, b2) = (t.to_array(), b1.to_array(), b2.to_array());
+                    t_cur = keep_nearest(mask, &t, &b1, &b2, |lane| pack.ids[lane], &mut best, t_cur);
+                }
+                Visit::Continue(t_cur)
+            },
+        );
         best
     }
 
@@ -120,6 +130,19 @@ impl MeshBvh {
         let r4 = Ray4::new(ray);
         let mut hit = false;
         self.tree.traverse::<false, _>(ray, t_min, t_max, &self.packs, |range, t_cur| {
+            #[cfg(target_arch = "x86_64")]
+            if self.tree.width() == 8 && range.len() == 2 {
+                let (a, b) = (&self.packs[range.start], &self.packs[range.start + 1]);
+                // SAFETY: the 8-wide tree exists only where the processor has AVX2.
+                #[allow(unsafe_code)]
+                let mask = unsafe { tri4::intersect_pair(a, b, &r4, t_min, t_max).0 };
+                return if mask != 0 {
+                    hit = true;
+                    Visit::Stop
+                } else {
+                    Visit::Continue(t_cur)
+                };
+            }
             if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
                 hit = true;
                 Visit::Stop
@@ -129,6 +152,30 @@ impl MeshBvh {
         });
         hit
     }
+}
+
+/// Folds the lanes of one triangle test that hit (`mask`) into `best`, the nearest
+/// so far, ties to the lower id; returns the bound for the rest of the walk.
+#[inline(always)]
+fn keep_nearest(
+    mut mask: u32,
+    t: &[f32],
+    b1: &[f32],
+    b2: &[f32],
+    id: impl Fn(usize) -> u32,
+    best: &mut Option<Hit>,
+    mut t_cur: f32,
+) -> f32 {
+    while mask != 0 {
+        let lane = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let id = id(lane);
+        if best.as_ref().is_none_or(|b| t[lane] < b.t || (t[lane] == b.t && id < b.prim)) {
+            t_cur = t[lane];
+            *best = Some(Hit { t: t[lane], uv: Vec2::new(b1[lane], b2[lane]), part: part::SIDE, prim: id });
+        }
+    }
+    t_cur
 }
 
 /// Scenes of at most this many objects cull them per image tile for camera rays
