@@ -9,6 +9,7 @@
 //! identical images.
 
 pub mod bvh;
+mod pages;
 mod sphere4;
 mod tri4;
 pub mod wide;
@@ -83,7 +84,7 @@ impl MeshBvh {
             (start, packs.len() as u32 - start)
         });
         packs.shrink_to_fit();
-        MeshBvh { tree, packs }
+        MeshBvh { tree, packs: pages::on_huge_pages(packs) }
     }
 
     fn memory_bytes(&self) -> usize {
@@ -129,27 +130,34 @@ impl MeshBvh {
     fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let r4 = Ray4::new(ray);
         let mut hit = false;
-        self.tree.traverse::<false, _>(ray, t_min, t_max, &self.packs, |range, t_cur| {
-            #[cfg(target_arch = "x86_64")]
-            if self.tree.width() == 8 && range.len() == 2 {
-                let (a, b) = (&self.packs[range.start], &self.packs[range.start + 1]);
-                // SAFETY: the 8-wide tree exists only where the processor has AVX2.
-                #[allow(unsafe_code)]
-                let mask = unsafe { tri4::intersect_pair(a, b, &r4, t_min, t_max).0 };
-                return if mask != 0 {
+        self.tree.traverse::<false, _>(
+            ray,
+            t_min,
+            t_max,
+            &self.packs,
+            #[inline(always)]
+            |range, t_cur| {
+                #[cfg(target_arch = "x86_64")]
+                if self.tree.width() == 8 && range.len() == 2 {
+                    let (a, b) = (&self.packs[range.start], &self.packs[range.start + 1]);
+                    // SAFETY: the 8-wide tree exists only where the processor has AVX2.
+                    #[allow(unsafe_code)]
+                    let mask = unsafe { tri4::intersect_pair(a, b, &r4, t_min, t_max).0 };
+                    return if mask != 0 {
+                        hit = true;
+                        Visit::Stop
+                    } else {
+                        Visit::Continue(t_cur)
+                    };
+                }
+                if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
                     hit = true;
                     Visit::Stop
                 } else {
                     Visit::Continue(t_cur)
-                };
-            }
-            if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
-                hit = true;
-                Visit::Stop
-            } else {
-                Visit::Continue(t_cur)
-            }
-        });
+                }
+            },
+        );
         hit
     }
 }
@@ -274,6 +282,7 @@ impl<'s> World<'s> {
             (start, leaves.len() as u32 - start)
         });
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
+        let leaves = pages::on_huge_pages(leaves);
         World { scene, kind, top4, leaves, meshes, transmission, build_time: start.elapsed(), flat }
     }
 
