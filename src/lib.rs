@@ -18,6 +18,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod math;
+pub mod pages;
 pub mod render;
 pub mod sampler;
 pub mod scene;

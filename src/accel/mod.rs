@@ -9,7 +9,6 @@
 //! identical images.
 
 pub mod bvh;
-mod pages;
 mod sphere4;
 mod tri4;
 pub mod wide;
@@ -84,7 +83,7 @@ impl MeshBvh {
             (start, packs.len() as u32 - start)
         });
         packs.shrink_to_fit();
-        MeshBvh { tree, packs: pages::on_huge_pages(packs) }
+        MeshBvh { tree, packs: crate::pages::on_huge_pages(packs) }
     }
 
     fn memory_bytes(&self) -> usize {
@@ -282,7 +281,7 @@ impl<'s> World<'s> {
             (start, leaves.len() as u32 - start)
         });
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
-        let leaves = pages::on_huge_pages(leaves);
+        let leaves = crate::pages::on_huge_pages(leaves);
         World { scene, kind, top4, leaves, meshes, transmission, build_time: start.elapsed(), flat }
     }
 

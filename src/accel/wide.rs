@@ -39,7 +39,7 @@ impl Bvh4 {
     /// Collapses a binary tree: each wide node takes a binary node's children and keeps
     /// opening the inner child with the largest box until it has four.
     pub fn from_binary(bvh: &Bvh) -> Bvh4 {
-        Bvh4 { nodes: super::pages::on_huge_pages(collapse_tree(bvh)) }
+        Bvh4 { nodes: crate::pages::on_huge_pages(collapse_tree(bvh)) }
     }
 
     /// Rewrites every leaf's (first, count), in node order: lets a user re-lay out the
