@@ -124,7 +124,8 @@ impl Bvh4 {
                     let mut k = 0;
                     for lane in 0..4 {
                         if hit & (1 << lane) != 0 {
-                            let d = near[lane];
+                            // Any-hit walks never cull by distance: no need to read it.
+                            let d = if ORDERED { near[lane] } else { 0.0 };
                             let mut j = k;
                             if ORDERED {
                                 while j > 0 && order[j - 1].0 < d {
@@ -155,13 +156,14 @@ impl Bvh4 {
                     continue 'visit;
                 }
             }
-            // Pop the next entry still in front of the closest hit.
+            // Pop the next entry still in front of the closest hit (any entry, when any
+            // hit will do: then `t_max` never shrinks).
             loop {
                 if sp == 0 {
                     return true;
                 }
                 sp -= 1;
-                if stack[sp].1 <= *t_max * ROBUST {
+                if !ORDERED || stack[sp].1 <= *t_max * ROBUST {
                     current = stack[sp];
                     continue 'visit;
                 }

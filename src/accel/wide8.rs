@@ -110,16 +110,18 @@ impl Bvh8 {
                 }
                 let (near, mut hit) = enter!(&r, n, t_min, *t_max);
                 if !ORDERED && hit != 0 {
-                    // Any hit will do: no order to keep. Go on into the last child,
-                    // stack the others.
+                    // Any hit will do: no order to keep, and `t_max` never shrinks, so
+                    // no stacked child is culled by its distance. Go on into the last
+                    // child, stack the others, without their distances: reading those
+                    // back from the stored vector cost 6 % of a shadow ray.
                     let last = 31 - hit.leading_zeros() as usize;
                     hit &= !(1 << last);
                     while hit != 0 {
                         let lane = hit.trailing_zeros() as usize;
                         hit &= hit - 1;
-                        stack_child!(lane, near[lane]);
+                        stack_child!(lane, 0.0);
                     }
-                    current = (n.packed[last], near[last]);
+                    current = (n.packed[last], 0.0);
                     continue 'visit;
                 }
                 if hit != 0 {
@@ -151,7 +153,8 @@ impl Bvh8 {
                     return true;
                 }
                 sp -= 1;
-                if stack[sp].1 <= *t_max * ROBUST {
+                // (Any entry, when any hit will do.)
+                if !ORDERED || stack[sp].1 <= *t_max * ROBUST {
                     current = stack[sp];
                     continue 'visit;
                 }
