@@ -15,20 +15,21 @@ pub fn on_huge_pages<T: Copy>(v: Vec<T>) -> Vec<T> {
     if std::mem::size_of_val(v.as_slice()) < MIN_BYTES {
         return v;
     }
-    let mut out = advised(v.len());
+    let mut out = with_capacity(v.len());
     out.extend_from_slice(&v);
     out
 }
 
 /// `n` copies of `x`, on huge pages if that is big enough.
 pub fn filled<T: Copy>(n: usize, x: T) -> Vec<T> {
-    let mut out = advised(n);
+    let mut out = with_capacity(n);
     out.resize(n, x);
     out
 }
 
-/// An empty vector with room for `n`, its memory advised for huge pages if it is big.
-fn advised<T>(n: usize) -> Vec<T> {
+/// An empty vector with room for `n`, its memory advised for huge pages if it is big:
+/// fill it without growing it past `n`, which would move it to memory not so advised.
+pub fn with_capacity<T>(n: usize) -> Vec<T> {
     let out: Vec<T> = Vec::with_capacity(n);
     let bytes = n * std::mem::size_of::<T>();
     if bytes >= MIN_BYTES {

@@ -68,7 +68,9 @@ impl MeshBvh {
             (0..mesh.triangle_count()).map(|i| crate::math::Aabb::from_points(mesh.corners(i))).collect();
         let bvh = Bvh::build_packed(&bounds, 4);
         let mut tree = wide(&bvh, width);
-        let mut packs = Vec::with_capacity(mesh.triangle_count() / 3);
+        // Every leaf of the binary tree is a leaf of the wide one, in packs of four.
+        let pack_count = bvh.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.count.div_ceil(4) as usize).sum();
+        let mut packs = crate::pages::with_capacity(pack_count);
         let mut chunk = Vec::with_capacity(4);
         tree.map_leaves(|first, count| {
             let start = packs.len() as u32;
@@ -82,8 +84,8 @@ impl MeshBvh {
             }
             (start, packs.len() as u32 - start)
         });
-        packs.shrink_to_fit();
-        MeshBvh { tree, packs: crate::pages::on_huge_pages(packs) }
+        debug_assert_eq!(packs.len(), pack_count);
+        MeshBvh { tree, packs }
     }
 
     fn memory_bytes(&self) -> usize {
