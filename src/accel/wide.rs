@@ -39,7 +39,7 @@ impl Bvh4 {
     /// Collapses a binary tree: each wide node takes a binary node's children and keeps
     /// opening the inner child with the largest box until it has four.
     pub fn from_binary(bvh: &Bvh) -> Bvh4 {
-        Bvh4 { nodes: crate::pages::on_huge_pages(collapse_tree(bvh)) }
+        Bvh4 { nodes: collapse_tree(bvh) }
     }
 
     /// Rewrites every leaf's (first, count), in node order: lets a user re-lay out the
@@ -206,7 +206,9 @@ pub(super) trait WideNode: Sized {
 
 /// The wide nodes of a binary tree, root first.
 pub(super) fn collapse_tree<N: WideNode>(bvh: &Bvh) -> Vec<N> {
-    let mut nodes = Vec::with_capacity(bvh.nodes.len() / (N::WIDTH - 1) + 1);
+    // Room for the most wide nodes there can be (one per binary inner node), on huge
+    // pages; the unused end is never touched, and is given back below.
+    let mut nodes = crate::pages::with_capacity(bvh.nodes.len() / 2 + 1);
     let root = &bvh.nodes[0];
     let mut n = N::empty();
     if root.is_leaf() || root.count == 0 && bvh.nodes.len() == 1 {

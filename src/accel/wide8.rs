@@ -34,7 +34,7 @@ pub struct Bvh8 {
 impl Bvh8 {
     /// Collapses a binary tree into 8-wide nodes, or `None` if this processor lacks AVX2.
     pub fn from_binary(bvh: &Bvh) -> Option<Bvh8> {
-        std::is_x86_feature_detected!("avx2").then(|| Bvh8 { nodes: crate::pages::on_huge_pages(collapse_tree(bvh)) })
+        std::is_x86_feature_detected!("avx2").then(|| Bvh8 { nodes: collapse_tree(bvh) })
     }
 
     /// See [`super::Bvh4::map_leaves`].
