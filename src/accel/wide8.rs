@@ -93,13 +93,17 @@ impl Bvh8 {
                 let n = &self.nodes[index as usize];
                 // Stacks child `lane`, entered at distance `d`, and starts loading it (a
                 // nested walk takes it when the stack is full).
-                macro_rules! stack_child {
-                    ($lane:expr, $d:expr) => {
-                        let entry = (n.packed[$lane], $d);
-                        match unpack(entry.0) {
+                macro_rules! load_child {
+                    ($lane:expr) => {
+                        match unpack(n.packed[$lane]) {
                             (child, 0) => prefetch(&self.nodes[child as usize]),
                             (first, _) => super::wide::prefetch_items(items, first as usize),
                         }
+                    };
+                }
+                macro_rules! stack_child {
+                    ($lane:expr, $d:expr) => {
+                        let entry = (n.packed[$lane], $d);
                         if sp < STACK {
                             stack[sp] = entry;
                             sp += 1;
@@ -119,32 +123,35 @@ impl Bvh8 {
                     while hit != 0 {
                         let lane = hit.trailing_zeros() as usize;
                         hit &= hit - 1;
+                        load_child!(lane);
                         stack_child!(lane, 0.0);
                     }
                     current = (n.packed[last], 0.0);
                     continue 'visit;
                 }
                 if hit != 0 {
-                    // Nearest child next; the others stacked farthest first.
-                    let mut order = [(0f32, 0usize); 8];
+                    // Nearest child next; the others stacked farthest first. All start
+                    // loading before the sort, the nearest too.
+                    let mut order = [(0f32, 0u32); 8];
                     let mut k = 0;
                     while hit != 0 {
                         let lane = hit.trailing_zeros() as usize;
                         hit &= hit - 1;
+                        load_child!(lane);
                         let d = near[lane];
                         let mut j = k;
                         while j > 0 && order[j - 1].0 < d {
                             order[j] = order[j - 1];
                             j -= 1;
                         }
-                        order[j] = (d, lane);
+                        order[j] = (d, lane as u32);
                         k += 1;
                     }
                     for &(d, lane) in &order[..k - 1] {
-                        stack_child!(lane, d);
+                        stack_child!(lane as usize, d);
                     }
                     let (d, lane) = order[k - 1];
-                    current = (n.packed[lane], d);
+                    current = (n.packed[lane as usize], d);
                     continue 'visit;
                 }
             }
