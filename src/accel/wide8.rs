@@ -120,6 +120,7 @@ impl Bvh8 {
                     // back from the stored vector cost 6 % of a shadow ray.
                     let last = 31 - hit.leading_zeros() as usize;
                     hit &= !(1 << last);
+                    load_child!(last);
                     while hit != 0 {
                         let lane = hit.trailing_zeros() as usize;
                         hit &= hit - 1;
