@@ -138,20 +138,7 @@ impl MeshBvh {
             &self.packs,
             #[inline(always)]
             |range, t_cur| {
-                #[cfg(target_arch = "x86_64")]
-                if self.tree.width() == 8 && range.len() == 2 {
-                    let (a, b) = (&self.packs[range.start], &self.packs[range.start + 1]);
-                    // SAFETY: the 8-wide tree exists only where the processor has AVX2.
-                    #[allow(unsafe_code)]
-                    let mask = unsafe { tri4::intersect_pair(a, b, &r4, t_min, t_max).0 };
-                    return if mask != 0 {
-                        hit = true;
-                        Visit::Stop
-                    } else {
-                        Visit::Continue(t_cur)
-                    };
-                }
-                if self.packs[range].iter().any(|p| p.intersect(&r4, t_min, t_max).0 != 0) {
+                if self.leaf_blocks(range, &r4, t_min, t_max) {
                     hit = true;
                     Visit::Stop
                 } else {
@@ -160,6 +147,19 @@ impl MeshBvh {
             },
         );
         hit
+    }
+
+    /// Whether a triangle of leaf `range` lies across the ray within `(t_min, t_max)`.
+    #[inline(always)]
+    fn leaf_blocks(&self, range: std::ops::Range<usize>, r4: &Ray4, t_min: f32, t_max: f32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.tree.width() == 8 && range.len() == 2 {
+            let (a, b) = (&self.packs[range.start], &self.packs[range.start + 1]);
+            // SAFETY: the 8-wide tree exists only where the processor has AVX2.
+            #[allow(unsafe_code)]
+            return unsafe { tri4::intersect_pair(a, b, r4, t_min, t_max).0 != 0 };
+        }
+        self.packs[range].iter().any(|p| p.intersect(r4, t_min, t_max).0 != 0)
     }
 }
 

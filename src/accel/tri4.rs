@@ -145,13 +145,17 @@ mod tests {
     use super::*;
     use crate::geometry::intersect_triangle;
 
-    #[test]
-    fn every_lane_matches_the_scalar_test_bit_for_bit() {
-        let mut s = 12345u64;
-        let mut f = || {
+    /// Uniform numbers in [-2, 2) from a seeded LCG.
+    fn numbers(mut s: u64) -> impl FnMut() -> f32 {
+        move || {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((s >> 40) as f32 / (1u64 << 24) as f32) * 4.0 - 2.0
-        };
+        }
+    }
+
+    #[test]
+    fn every_lane_matches_the_scalar_test_bit_for_bit() {
+        let mut f = numbers(12345);
         let mut hits = 0;
         for _ in 0..20_000 {
             let tris: Vec<_> = (0..4)
@@ -187,11 +191,7 @@ mod tests {
             eprintln!("no AVX2 here: the pair test is not run");
             return;
         }
-        let mut s = 777u64;
-        let mut f = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((s >> 40) as f32 / (1u64 << 24) as f32) * 4.0 - 2.0
-        };
+        let mut f = numbers(777);
         let mut hits = 0;
         for _ in 0..10_000 {
             let tris: Vec<_> = (0..8)
