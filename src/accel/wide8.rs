@@ -91,8 +91,7 @@ impl Bvh8 {
                 }
             } else {
                 let n = &self.nodes[index as usize];
-                // Stacks child `lane`, entered at distance `d`, and starts loading it (a
-                // nested walk takes it when the stack is full).
+                // Starts loading child `lane` (a node's box lines, or a leaf's first items).
                 macro_rules! load_child {
                     ($lane:expr) => {
                         match unpack(n.packed[$lane]) {
@@ -101,6 +100,8 @@ impl Bvh8 {
                         }
                     };
                 }
+                // Stacks child `lane`, entered at distance `d` (a nested walk takes it
+                // when the stack is full).
                 macro_rules! stack_child {
                     ($lane:expr, $d:expr) => {
                         let entry = (n.packed[$lane], $d);
