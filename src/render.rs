@@ -278,10 +278,8 @@ impl<'s> Renderer<'s> {
         if culled {
             // Per object hit, a box round its hit points.
             hits.clear();
-            for (ray, hit) in found.iter_mut() {
-                // Found in place: copied out of a return value, the hit was read back
-                // wider than written (a store-forwarding stall).
-                *hit = world.closest_among(seen, ray, 0.0, f32::INFINITY);
+            world.closest_among_each(seen, found);
+            for (ray, hit) in found.iter() {
                 if let Some((h, i)) = hit {
                     match hits.iter_mut().find(|(o, _)| o == i) {
                         Some((_, b)) => *b = b.grow(ray.at(h.t)),

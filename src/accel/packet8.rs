@@ -1,0 +1,253 @@
+//! Eight camera rays of an image tile at once against one quad or sphere: the tile's
+//! rays all test the same few objects ([`super::World::seen_from`]), so going object by
+//! object, eight rays a test, replaces eight scalar tests (each a chain of dependent
+//! operations) with one. Each lane does [`Quad::intersect`]'s or [`Sphere::intersect`]'s
+//! operations in the same order, so its answer is bit-identical to the scalar one and
+//! images do not depend on the path.
+//!
+//! Calling these is sound only where the processor has AVX2.
+
+use crate::geometry::{Hit, Quad, Sphere, part};
+use crate::math::{Ray, Vec2};
+use std::arch::x86_64::*;
+
+/// Eight rays, lane by lane.
+pub struct Rays8 {
+    o: [__m256; 3],
+    d: [__m256; 3],
+}
+
+/// Per lane, the nearest hit so far, field by field ([`Hit`]'s), and the object hit
+/// (`u32::MAX`: none yet). Its distance is the exclusive bound for the next object.
+pub struct Best8 {
+    pub t: [f32; 8],
+    u: [f32; 8],
+    v: [f32; 8],
+    part: [u8; 8],
+    prim: [u32; 8],
+    pub index: [u32; 8],
+}
+
+impl Best8 {
+    pub fn new() -> Self {
+        Best8 { t: [f32::INFINITY; 8], u: [0.0; 8], v: [0.0; 8], part: [0; 8], prim: [0; 8], index: [u32::MAX; 8] }
+    }
+
+    pub fn set(&mut self, lane: usize, h: Hit, index: u32) {
+        (self.t[lane], self.u[lane], self.v[lane], self.part[lane], self.prim[lane]) =
+            (h.t, h.uv.x, h.uv.y, h.part, h.prim);
+        self.index[lane] = index;
+    }
+
+    pub fn get(&self, lane: usize) -> (Hit, u32) {
+        let uv = Vec2::new(self.u[lane], self.v[lane]);
+        (Hit { t: self.t[lane], uv, part: self.part[lane], prim: self.prim[lane] }, self.index[lane])
+    }
+}
+
+impl Rays8 {
+    /// Lanes past the end of `rays` repeat its first ray (their answers are not read).
+    #[target_feature(enable = "avx2")]
+    pub fn new<T>(rays: &[(Ray, T)]) -> Self {
+        let mut rows = [[0f32; 8]; 6];
+        for lane in 0..8 {
+            let r = &rays[if lane < rays.len() { lane } else { 0 }].0;
+            for (row, x) in rows.iter_mut().zip(r.origin.to_array().into_iter().chain(r.dir.to_array())) {
+                row[lane] = x;
+            }
+        }
+        let row = |k: usize| load(&rows[k]);
+        Rays8 { o: [row(0), row(1), row(2)], d: [row(3), row(4), row(5)] }
+    }
+}
+
+#[target_feature(enable = "avx2")]
+fn splat3(v: crate::math::Vec3) -> [__m256; 3] {
+    [_mm256_set1_ps(v.x), _mm256_set1_ps(v.y), _mm256_set1_ps(v.z)]
+}
+
+/// glam's `Vec3::dot`: `(x·x') + (y·y') + (z·z')`, left to right.
+#[target_feature(enable = "avx2")]
+fn dot(a: &[__m256; 3], b: &[__m256; 3]) -> __m256 {
+    _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(a[0], b[0]), _mm256_mul_ps(a[1], b[1])), _mm256_mul_ps(a[2], b[2]))
+}
+
+/// glam's `Vec3::cross`.
+#[target_feature(enable = "avx2")]
+fn cross(a: &[__m256; 3], b: &[__m256; 3]) -> [__m256; 3] {
+    let (mul, sub) = (_mm256_mul_ps, _mm256_sub_ps);
+    [
+        sub(mul(a[1], b[2]), mul(b[1], a[2])),
+        sub(mul(a[2], b[0]), mul(b[2], a[0])),
+        sub(mul(a[0], b[1]), mul(b[0], a[1])),
+    ]
+}
+
+#[target_feature(enable = "avx2")]
+#[allow(unsafe_code)]
+fn load(a: &[f32; 8]) -> __m256 {
+    // SAFETY: reads eight f32s from a live `[f32; 8]`; the unaligned load has no
+    // alignment requirement.
+    unsafe { _mm256_loadu_ps(a.as_ptr()) }
+}
+
+#[target_feature(enable = "avx2")]
+#[allow(unsafe_code)]
+fn store(v: __m256) -> [f32; 8] {
+    let mut a = [0f32; 8];
+    // SAFETY: an unaligned store of eight f32s into a local `[f32; 8]`.
+    unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
+    a
+}
+
+/// Keeps, in the lanes of `hit`, distance `t` and coordinates (`u`, `v`) of object `index`.
+#[target_feature(enable = "avx2")]
+fn keep(best: &mut Best8, mut hit: u32, t: __m256, u: __m256, v: __m256, index: u32) {
+    let (t, u, v) = (store(t), store(u), store(v));
+    while hit != 0 {
+        let lane = hit.trailing_zeros() as usize;
+        hit &= hit - 1;
+        best.set(lane, Hit { t: t[lane], uv: Vec2::new(u[lane], v[lane]), part: part::SIDE, prim: 0 }, index);
+    }
+}
+
+/// [`Quad::intersect`] in eight lanes, with `t_min` 0 and each lane's bound `best.t`;
+/// the lanes `live` (a bit mask) that hit keep it as object `index`.
+#[target_feature(enable = "avx2")]
+pub fn quad(q: &Quad, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
+    let (normal, plane_d) = q.plane();
+    let (n, corner, eu, ev, w) = (splat3(normal), splat3(q.corner), splat3(q.edge_u), splat3(q.edge_v), splat3(q.w()));
+    let denom = dot(&n, &r.d);
+    let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), denom);
+    // `!(|denom| <= 1e-9)`: a NaN goes on, as in the scalar test.
+    let facing = _mm256_cmp_ps::<_CMP_NLE_UQ>(abs, _mm256_set1_ps(1e-9));
+    let t = _mm256_div_ps(_mm256_sub_ps(_mm256_set1_ps(plane_d), dot(&n, &r.o)), denom);
+    let ahead = _mm256_and_ps(
+        _mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_setzero_ps()),
+        _mm256_cmp_ps::<_CMP_LT_OQ>(t, load(&best.t)),
+    );
+    let mut hit = _mm256_movemask_ps(_mm256_and_ps(facing, ahead)) as u32 & live;
+    if hit == 0 {
+        return;
+    }
+    // `ray.at(t) - corner`.
+    let p: [__m256; 3] =
+        std::array::from_fn(|i| _mm256_sub_ps(_mm256_add_ps(r.o[i], _mm256_mul_ps(t, r.d[i])), corner[i]));
+    let a = dot(&w, &cross(&p, &ev));
+    let b = dot(&w, &cross(&eu, &p));
+    let (zero, one) = (_mm256_setzero_ps(), _mm256_set1_ps(1.0));
+    let inside = |x: __m256| _mm256_and_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(x, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(x, one));
+    hit &= _mm256_movemask_ps(_mm256_and_ps(inside(a), inside(b))) as u32;
+    keep(best, hit, t, a, b, index);
+}
+
+/// [`Sphere::intersect`] in eight lanes, as [`quad`].
+#[target_feature(enable = "avx2")]
+pub fn sphere(s: &Sphere, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
+    let (mul, sub) = (_mm256_mul_ps, _mm256_sub_ps);
+    let center = splat3(s.center);
+    let oc: [__m256; 3] = std::array::from_fn(|i| sub(r.o[i], center[i]));
+    let b = dot(&oc, &r.d);
+    let r2 = _mm256_set1_ps(s.radius * s.radius);
+    let perp: [__m256; 3] = std::array::from_fn(|i| sub(oc[i], mul(b, r.d[i])));
+    let disc = sub(r2, dot(&perp, &perp));
+    // `!(disc < 0)`: a NaN goes on, as in the scalar test.
+    let real = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, _mm256_setzero_ps())) as u32 & live;
+    if real == 0 {
+        return;
+    }
+    let c = sub(dot(&oc, &oc), r2);
+    let sign = _mm256_set1_ps(-0.0);
+    // `disc.sqrt().copysign(b)`, then negated.
+    let root = _mm256_or_ps(_mm256_andnot_ps(sign, _mm256_sqrt_ps(disc)), _mm256_and_ps(sign, b));
+    let q = _mm256_xor_ps(_mm256_add_ps(b, root), sign);
+    let (t0, t1) = (_mm256_div_ps(c, q), q);
+    let ordered = _mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1);
+    let near = _mm256_blendv_ps(t1, t0, ordered);
+    let far = _mm256_blendv_ps(t0, t1, ordered);
+    let (lo, hi) = (_mm256_setzero_ps(), load(&best.t));
+    let within = |t: __m256| _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(t, lo), _mm256_cmp_ps::<_CMP_LT_OQ>(t, hi));
+    let (near_ok, far_ok) = (within(near), within(far));
+    let t = _mm256_blendv_ps(far, near, near_ok);
+    let hit = _mm256_movemask_ps(_mm256_or_ps(near_ok, far_ok)) as u32 & real;
+    if hit != 0 {
+        keep(best, hit, t, _mm256_setzero_ps(), _mm256_setzero_ps(), index);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+
+    /// Uniform numbers in [-2, 2) from a seeded LCG.
+    fn numbers(mut s: u64) -> impl FnMut() -> f32 {
+        move || {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            ((s >> 40) as f32 / (1u64 << 24) as f32) * 4.0 - 2.0
+        }
+    }
+
+    /// Eight rays from near `from`, some of them at `aim` (± a little), with bounds
+    /// from earlier hits in some lanes; each lane's answer against the scalar test's.
+    #[allow(unsafe_code)]
+    fn check(
+        f: &mut impl FnMut() -> f32,
+        aim: Vec3,
+        scalar: impl Fn(&Ray, f32) -> Option<Hit>,
+        wide: impl Fn(&Rays8, &mut Best8),
+    ) -> u32 {
+        let from = Vec3::new(f(), f(), f()) * 3.0;
+        let rays: Vec<(Ray, ())> = (0..8)
+            .map(|_| {
+                let o = from + Vec3::new(f(), f(), f()) * 0.1;
+                (Ray::new(o, aim + Vec3::new(f(), f(), f()) * 0.6 - o), ())
+            })
+            .collect();
+        let mut best = Best8::new();
+        for lane in 0..8 {
+            if f() > 1.0 {
+                (best.t[lane], best.index[lane]) = (f().abs() * 4.0, 3);
+            }
+        }
+        let before = (best.t, best.index);
+        // SAFETY: the caller checked for AVX2.
+        unsafe { wide(&Rays8::new(&rays), &mut best) };
+        let mut hits = 0;
+        for (lane, (ray, ())) in rays.iter().enumerate() {
+            match scalar(ray, before.0[lane]) {
+                Some(h) => {
+                    hits += 1;
+                    assert_eq!(best.index[lane], 9, "lane {lane}: {ray:?}");
+                    let (got, _) = best.get(lane);
+                    assert_eq!([got.t, got.uv.x, got.uv.y].map(f32::to_bits), [h.t, h.uv.x, h.uv.y].map(f32::to_bits));
+                    assert_eq!((got.part, got.prim), (h.part, h.prim));
+                }
+                None => {
+                    assert_eq!((best.t[lane].to_bits(), best.index[lane]), (before.0[lane].to_bits(), before.1[lane]))
+                }
+            }
+        }
+        hits
+    }
+
+    #[test]
+    #[allow(unsafe_code)]
+    fn every_lane_matches_the_scalar_tests_bit_for_bit() {
+        if !std::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut f = numbers(7);
+        let (mut quad_hits, mut sphere_hits) = (0, 0);
+        for _ in 0..5_000 {
+            let q = Quad::new(Vec3::new(f(), f(), f()), Vec3::new(f(), f(), f()), Vec3::new(f(), f(), f()));
+            let aim = q.corner + 0.5 * (q.edge_u + q.edge_v);
+            // SAFETY (in the closure): checked for AVX2 above.
+            quad_hits += check(&mut f, aim, |r, t| q.intersect(r, 0.0, t), |r, b| unsafe { quad(&q, r, 0xff, b, 9) });
+            let s = Sphere::new(Vec3::new(f(), f(), f()), f().abs() + 0.05);
+            sphere_hits +=
+                check(&mut f, s.center, |r, t| s.intersect(r, 0.0, t), |r, b| unsafe { sphere(&s, r, 0xff, b, 9) });
+        }
+        assert!(quad_hits > 5_000 && sphere_hits > 5_000, "{quad_hits} {sphere_hits}");
+    }
+}
