@@ -5,9 +5,9 @@
 use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
-use crate::geometry::Hit;
-use crate::integrator::{Integrator, RayStats};
-use crate::math::{Aabb, Color, Ray, Vec2};
+use crate::geometry::{Hit, Surface};
+use crate::integrator::{Integrator, RayStats, Traced};
+use crate::math::{Aabb, Color, Ray, Vec2, Vec3};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -23,11 +23,22 @@ const TILE: u32 = 16;
 struct TileBuffers {
     pixels: Vec<Color>,
     samples: Vec<Vec2>,
+    /// The tile's rays and their hits: camera rays, then those sent on ([`Traced`]).
     found: Vec<(Ray, Option<(Hit, u32)>)>,
+    next: Vec<[u32; 2]>,
+    surfaces: Vec<Surface>,
     seen: Vec<u32>,
     hits: Vec<(u32, Aabb)>,
-    blockers: Vec<Option<Vec<u32>>>,
+    /// Per depth, per light, the objects that may shadow the hits: the first `levels`.
+    blockers: Vec<Vec<Option<Vec<u32>>>>,
+    levels: usize,
+    /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
+    /// the node sending it, the ray.
+    sent: Vec<((u32, u32), u32, Ray)>,
 }
+
+/// No node.
+const NONE: u32 = u32::MAX;
 
 /// A configured render of one scene. Settings start from the scene's own and can be
 /// overridden one by one.
@@ -256,7 +267,7 @@ impl<'s> Renderer<'s> {
         buf: &mut TileBuffers,
         stats: &mut RayStats,
     ) {
-        let TileBuffers { pixels, samples, found, seen, hits, blockers } = buf;
+        let TileBuffers { pixels, samples, found, seen, .. } = buf;
         pixels.clear();
         found.clear();
         for y in y0..y1 {
@@ -274,12 +285,50 @@ impl<'s> Renderer<'s> {
         // between those hits and each light.
         let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
         let culled = world.seen_from(apex, edges, seen);
-        blockers.clear();
+        buf.levels = 0;
+        let camera_rays = found.len();
         if culled {
+            world.closest_among_each(seen, found);
+            self.trace_ahead(world, integrator, buf, stats);
+        }
+        let TileBuffers { pixels, samples, found, next, surfaces, blockers, levels, .. } = buf;
+        let traced = Traced { nodes: found, surfaces, next, blockers: &blockers[..*levels] };
+        let n = samples.len();
+        for (p, pixel) in found[..camera_rays].chunks(n).enumerate() {
+            let mut sum = Color::ZERO;
+            for (s, (ray, _)) in pixel.iter().enumerate() {
+                sum += if culled {
+                    integrator.shade_traced(&traced, p * n + s, stats)
+                } else {
+                    integrator.trace_primary(ray, stats)
+                };
+            }
+            pixels.push(sum / n as f32);
+        }
+    }
+
+    /// For a culled tile whose camera rays' hits are found (`buf.found`): level by level,
+    /// the rays those hits send on, and what they hit, appended to `buf.found` (linked
+    /// by `buf.next`), each level grouped by the object its rays leave and how (reflected
+    /// or transmitted) and a group tested only against what it may meet
+    /// ([`World::seen_along`]); and per level, the objects that may shadow its hits.
+    fn trace_ahead(&self, world: &World, integrator: &Integrator, buf: &mut TileBuffers, stats: &mut RayStats) {
+        let TileBuffers { found, next, surfaces, seen, hits, blockers, levels, sent, .. } = buf;
+        next.clear();
+        next.resize(found.len(), [NONE; 2]);
+        surfaces.clear();
+        // One-sided shading may send a shadow ray from a surface's back through the
+        // surface itself, which the culling assumes it does not.
+        let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
+        let (mut level, mut depth) = (0..found.len(), 1);
+        loop {
             // Per object hit, a box round its hit points.
             hits.clear();
-            world.closest_among_each(seen, found);
-            for (ray, hit) in found.iter() {
+            for (ray, hit) in &found[level.clone()] {
+                surfaces.push(match hit {
+                    Some((h, i)) if integrator.sends(*i, depth) => integrator.surface(ray, h, *i),
+                    _ => Surface { point: Vec3::ZERO, normal: Vec3::ZERO, uv: Vec2::ZERO },
+                });
                 if let Some((h, i)) = hit {
                     match hits.iter_mut().find(|(o, _)| o == i) {
                         Some((_, b)) => *b = b.grow(ray.at(h.t)),
@@ -287,24 +336,57 @@ impl<'s> Renderer<'s> {
                     }
                 }
             }
-            // One-sided shading may send a shadow ray from a surface's back through
-            // the surface itself, which the culling assumes it does not.
-            let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
-            blockers.extend(lights.iter().map(|l| {
-                let mut few = Vec::new();
-                world.may_shadow(hits, l.position, &mut few).then_some(few)
-            }));
-        }
-        for pixel in found.chunks(samples.len()) {
-            let mut sum = Color::ZERO;
-            for (ray, hit) in pixel {
-                sum += if culled {
-                    integrator.shade_primary(ray, hit, blockers, stats)
-                } else {
-                    integrator.trace_primary(ray, stats)
-                };
+            // Kept from tile to tile, to allocate nothing.
+            let d = depth as usize;
+            if blockers.len() < d {
+                blockers.push(Vec::new());
             }
-            pixels.push(sum / samples.len() as f32);
+            let level_blockers = &mut blockers[d - 1];
+            level_blockers.resize_with(lights.len(), || None);
+            for (b, l) in level_blockers.iter_mut().zip(lights) {
+                let mut few = b.take().unwrap_or_default();
+                *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
+            }
+            *levels = d;
+            if depth >= self.max_depth {
+                break;
+            }
+            sent.clear();
+            for k in level.clone() {
+                if let (ray, Some((_, i))) = &found[k]
+                    && integrator.sends(*i, depth)
+                {
+                    for (slot, r) in integrator.sent_on(ray, &surfaces[k], *i, depth, stats).into_iter().enumerate() {
+                        if let Some(r) = r {
+                            sent.push(((*i, slot as u32), k as u32, r));
+                        }
+                    }
+                }
+            }
+            if sent.is_empty() {
+                break;
+            }
+            sent.sort_by_key(|&(group, ..)| group);
+            let start = found.len();
+            for (j, &(_, parent, ray)) in sent.iter().enumerate() {
+                let (_, slot) = sent[j].0;
+                next[parent as usize][slot as usize] = (start + j) as u32;
+                found.push((ray, None));
+                next.push([NONE; 2]);
+            }
+            let mut at = start;
+            for group in sent.chunk_by(|a, b| a.0 == b.0) {
+                let rays = &mut found[at..at + group.len()];
+                at += group.len();
+                if rays.len() >= 4 && world.seen_along(rays, seen) {
+                    world.closest_among_each(seen, rays);
+                } else {
+                    for (ray, hit) in rays {
+                        *hit = world.closest(ray, 0.0, f32::INFINITY);
+                    }
+                }
+            }
+            (level, depth) = (start..found.len(), depth + 1);
         }
     }
 

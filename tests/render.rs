@@ -121,13 +121,19 @@ fn room_matches_reference_image() {
 
 /// The BVH must pick the same object as testing every object, even where a ray meets
 /// two objects at once: the room's diagonal pixels look exactly into the corners where
-/// walls meet the ceiling and floor.
+/// walls meet the ceiling and floor. (With the tree, image tiles also find the hits of
+/// the rays their hits send on ahead of shading, level by level, and count them there:
+/// the counts must agree too.)
 #[test]
 fn room_is_identical_with_and_without_bvh() {
     use whitted::accel::AccelKind;
     let scene = room();
-    let bvh = Renderer::new(&scene).unwrap().size(400, 400).accel(AccelKind::Bvh).render();
-    let none = Renderer::new(&scene).unwrap().size(400, 400).accel(AccelKind::None).render();
+    let render =
+        |accel| Renderer::new(&scene).unwrap().size(400, 400).spp(2).accel(accel).render_with_progress(&|_, _| {});
+    let (bvh, none) = (render(AccelKind::Bvh), render(AccelKind::None));
+    assert_eq!(bvh.stats, none.stats);
+    assert!(bvh.stats.reflection > 50_000 && bvh.stats.refraction > 20_000, "{:?}", bvh.stats);
+    let (bvh, none) = (bvh.image, none.image);
     let differing =
         (0..400).flat_map(|y| (0..400).map(move |x| (x, y))).filter(|&(x, y)| bvh.pixel(x, y) != none.pixel(x, y));
     let first: Vec<_> = differing.take(5).collect();

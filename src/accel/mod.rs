@@ -189,6 +189,24 @@ fn keep_nearest(
     t_cur
 }
 
+/// Bounds on the distances `t` at which `o + t d` lies in the slab `[b_lo, b_hi]` of one
+/// axis, for any `o` in `[o_lo, o_hi]` and `d` in `[d_lo, d_hi]`: `(-inf, inf)` when `d`
+/// may be 0, else found from the extreme origins and directions.
+fn axis_reach(b_lo: f64, b_hi: f64, o_lo: f64, o_hi: f64, d_lo: f64, d_hi: f64) -> (f64, f64) {
+    if d_lo > 0.0 {
+        // Entering at (b_lo - o) / d, least for the farthest origin; leaving at
+        // (b_hi - o) / d, most for the nearest. Either divided by the direction that
+        // makes it least, or most.
+        let (n_in, n_out) = (b_lo - o_hi, b_hi - o_lo);
+        (n_in / if n_in >= 0.0 { d_hi } else { d_lo }, n_out / if n_out >= 0.0 { d_lo } else { d_hi })
+    } else if d_hi < 0.0 {
+        // The mirror image of the case above.
+        axis_reach(-b_hi, -b_lo, -o_hi, -o_lo, -d_hi, -d_lo)
+    } else {
+        (f64::NEG_INFINITY, f64::INFINITY)
+    }
+}
+
 /// Scenes of at most this many objects cull them per image tile for camera rays
 /// ([`World::seen_from`]): a test per object per tile, cheap while objects are few...
 const CONE_MAX_OBJECTS: usize = 64;
@@ -425,6 +443,51 @@ impl<'s> World<'s> {
             let (centre, half) = ((b.min + b.max).as_dvec3() * 0.5 - apex, (b.max - b.min).as_dvec3() * 0.5);
             // Wholly behind one side: no ray of the cone reaches it. (NaN keeps it.)
             if !sides.iter().any(|n| n.dot(centre) + n.abs().dot(half) < 0.0) {
+                if seen.len() == CONE_MAX_SEEN {
+                    return false;
+                }
+                seen.push(i as u32);
+            }
+        }
+        true
+    }
+
+    /// The objects that any of `rays` (from their origins on) may meet, in index order,
+    /// into `seen`; `false` (and `seen` unusable) when that would not pay, as in
+    /// [`World::seen_from`]. For rays of one kind sent on from one object's hits in an
+    /// image tile, which leave from nearby points in nearby directions, it is a few;
+    /// [`World::closest_among`] them then finds what the tree finds.
+    ///
+    /// Per axis, interval arithmetic in f64 bounds the distances at which a ray with
+    /// origin in the rays' box and direction in theirs can be within an object's slab
+    /// (its box widened by 1e-3, relative, for rounding); an object is passed over when
+    /// no distance past 0 lies within all three.
+    pub fn seen_along<T>(&self, rays: &[(Ray, T)], seen: &mut Vec<u32>) -> bool {
+        seen.clear();
+        if self.kind != AccelKind::Bvh || self.scene.objects.len() > CONE_MAX_OBJECTS {
+            return false;
+        }
+        let (mut o_lo, mut o_hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        let (mut d_lo, mut d_hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for (r, _) in rays {
+            let (o, d) = (r.origin.as_dvec3(), r.dir.as_dvec3());
+            (o_lo, o_hi, d_lo, d_hi) = (o_lo.min(o), o_hi.max(o), d_lo.min(d), d_hi.max(d));
+        }
+        if !(o_lo.is_finite() && o_hi.is_finite() && d_lo.is_finite() && d_hi.is_finite()) {
+            return false;
+        }
+        for (i, object) in self.scene.objects.iter().enumerate() {
+            let b = object.shape.bounds();
+            let (b_lo, b_hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+            let m = 1e-3 * (1.0 + b_lo.abs().max(b_hi.abs()).max_element());
+            let (b_lo, b_hi) = (b_lo - m, b_hi + m);
+            // NaN bounds keep the object.
+            let (mut enter, mut leave) = (0.0f64, f64::INFINITY);
+            for k in 0..3 {
+                let (lo, hi) = axis_reach(b_lo[k], b_hi[k], o_lo[k], o_hi[k], d_lo[k], d_hi[k]);
+                (enter, leave) = (enter.max(lo), leave.min(hi));
+            }
+            if !(enter > leave) {
                 if seen.len() == CONE_MAX_SEEN {
                     return false;
                 }
@@ -757,6 +820,56 @@ mod tests {
         assert!(!World::new(&big, AccelKind::Bvh).seen_from(apex, edges, &mut Vec::new()));
         let small = random_scene(1, 3);
         assert!(!World::new(&small, AccelKind::None).seen_from(apex, edges, &mut Vec::new()));
+    }
+
+    #[test]
+    fn rays_from_nearby_points_in_nearby_directions_test_only_what_they_may_meet_and_find_the_same() {
+        // Bundles of rays as a tile's reflections send on: origins within a small box
+        // (sometimes a single point, or one coordinate shared, as on an axis-aligned
+        // mirror), directions within a narrow cone, some with a zero component. Where
+        // the bundle culls, each ray must find what the tree finds.
+        let (mut culled, mut hits, mut dropped) = (0, 0, 0);
+        let mut seen = Vec::new();
+        for seed in 0..10u64 {
+            let scene = random_scene(seed, 20);
+            let world = World::new(&scene, AccelKind::Bvh);
+            let mut r = Rng::new(seed + 300);
+            for bundle in 0..400 {
+                let centre = v(&mut r, 25.0);
+                let spread = [0.0, 0.05, 1.0][bundle % 3];
+                let aim = unit(&mut r);
+                let aim = if bundle % 5 == 0 { Vec3::new(aim.x, 0.0, aim.z).normalize() } else { aim };
+                let width = [0.01, 0.1, 0.3][bundle % 4 % 3];
+                let rays: Vec<(Ray, ())> = (0..24)
+                    .map(|_| {
+                        let mut o = centre + v(&mut r, spread);
+                        if bundle % 7 == 0 {
+                            o.y = centre.y;
+                        }
+                        let mut d = aim + v(&mut r, width);
+                        if bundle % 5 == 0 && r.below(2) == 0 {
+                            d.y = 0.0;
+                        }
+                        (Ray::new(o, d), ())
+                    })
+                    .collect();
+                if !world.seen_along(&rays, &mut seen) {
+                    continue;
+                }
+                culled += 1;
+                dropped += scene.objects.len() - seen.len();
+                assert!(seen.windows(2).all(|w| w[0] < w[1]));
+                for (ray, ()) in &rays {
+                    let want = world.closest(ray, 0.0, f32::INFINITY);
+                    assert_eq!(world.closest_among(&seen, ray, 0.0, f32::INFINITY), want, "seed {seed}, {ray:?}");
+                    hits += want.is_some() as u32;
+                }
+            }
+        }
+        assert!(
+            culled > 1000 && hits > 5000 && dropped > 10_000,
+            "{culled} bundles, {hits} hits, {dropped} objects culled"
+        );
     }
 
     #[test]

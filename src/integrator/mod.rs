@@ -45,18 +45,67 @@ impl<'w, 's> Integrator<'w, 's> {
         self.trace(ray, 1, stats)
     }
 
-    /// [`Integrator::trace_primary`] for a camera ray whose hit is already `found`
-    /// (by [`World::closest_among`], say), with the shadow rays to light `i` testing
-    /// only `blockers[i]` where that is given ([`World::may_shadow`]): the same colour.
-    pub fn shade_primary(
+    /// [`Integrator::trace_primary`] for camera ray `k` of `traced`, whose hit and those
+    /// of the rays it sends on are already found: the same colour.
+    pub fn shade_traced(&self, traced: &Traced, k: usize, stats: &mut RayStats) -> Color {
+        stats.primary += 1;
+        self.shade_node(traced, k, 1, stats)
+    }
+
+    /// Node `k` of `traced`, the `depth`-th ray of its chain.
+    fn shade_node(&self, traced: &Traced, k: usize, depth: u32, stats: &mut RayStats) -> Color {
+        let (ray, found) = &traced.nodes[k];
+        let blockers = traced.blockers.get(depth as usize - 1).map_or(&[][..], |b| &b[..]);
+        self.shade(ray, found, depth, blockers, Some((traced, k)), stats)
+    }
+
+    /// The surface that shading sees where `ray` hit object `index`.
+    #[inline]
+    pub fn surface(&self, ray: &Ray, hit: &Hit, index: u32) -> Surface {
+        let scene = self.world.scene();
+        let object = &scene.objects[index as usize];
+        object.shape.surface_uv(ray, hit, scene.material(object.material).texture.uses_uv())
+    }
+
+    /// Whether a hit on object `index` by the `depth`-th ray of a chain sends rays on.
+    #[inline]
+    pub fn sends(&self, index: u32, depth: u32) -> bool {
+        let scene = self.world.scene();
+        let material = scene.material(scene.objects[index as usize].material);
+        depth < self.max_depth && (material.reflectivity > 0.0 || material.transparency > 0.0)
+    }
+
+    /// The rays that a hit of `ray` on object `index` (at `surface`), the `depth`-th
+    /// ray of its chain, sends on, reflected and transmitted, as [`Integrator::shade`]
+    /// does, and counted in `stats` as there.
+    #[inline]
+    pub fn sent_on(
         &self,
         ray: &Ray,
-        found: &Option<(Hit, u32)>,
-        blockers: &[Option<Vec<u32>>],
+        surface: &Surface,
+        index: u32,
+        depth: u32,
         stats: &mut RayStats,
-    ) -> Color {
-        stats.primary += 1;
-        self.shade(ray, found, 1, blockers, stats)
+    ) -> [Option<Ray>; 2] {
+        let scene = self.world.scene();
+        let material = scene.material(scene.objects[index as usize].material);
+        if depth >= self.max_depth || !(material.reflectivity > 0.0 || material.transparency > 0.0) {
+            return [None, None];
+        }
+        let (side, lit_from) = leaving(ray, surface);
+        let reflected = (material.reflectivity > 0.0).then(|| {
+            stats.reflection += 1;
+            reflected(ray, side, lit_from)
+        });
+        let transmitted = (material.transparency > 0.0).then(|| {
+            let (t, kind) = transmitted_ray(ray, surface, material.ior);
+            match kind {
+                Transmission::Refracted => stats.refraction += 1,
+                Transmission::TotalInternalReflection => stats.reflection += 1,
+            }
+            t
+        });
+        [reflected, transmitted]
     }
 
     /// The colour seen along `ray`, the `depth`-th ray of its chain.
@@ -64,7 +113,7 @@ impl<'w, 's> Integrator<'w, 's> {
         // Borrowed where `closest` wrote it: copying it out would read it back wider
         // than it was stored, which stalls store forwarding.
         let found = self.world.closest(ray, 0.0, f32::INFINITY);
-        self.shade(ray, &found, depth, &[], stats)
+        self.shade(ray, &found, depth, &[], None, stats)
     }
 
     /// The colour of what `ray` found (`None`: the background).
@@ -73,6 +122,10 @@ impl<'w, 's> Integrator<'w, 's> {
     /// τ·transmitted + specular`, the original's blending rules in one formula
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
+    ///
+    /// Shadow rays to light `i` test only `blockers[i]` where that is given
+    /// ([`World::may_shadow`]). With `ahead`, node `k` of a [`Traced`] tile, the rays sent
+    /// on are its next nodes, hits found; else they are traced here.
     #[inline(always)]
     fn shade(
         &self,
@@ -80,6 +133,7 @@ impl<'w, 's> Integrator<'w, 's> {
         found: &Option<(Hit, u32)>,
         depth: u32,
         blockers: &[Option<Vec<u32>>],
+        ahead: Option<(&Traced, usize)>,
         stats: &mut RayStats,
     ) -> Color {
         let Some((hit, index)) = found else {
@@ -88,12 +142,12 @@ impl<'w, 's> Integrator<'w, 's> {
         let scene = self.world.scene();
         let object = &scene.objects[*index as usize];
         let material = scene.material(object.material);
-        let surface = object.shape.surface_uv(ray, hit, material.texture.uses_uv());
+        let surface = match ahead {
+            Some((traced, k)) if self.sends(*index, depth) => traced.surfaces[k],
+            _ => object.shape.surface_uv(ray, hit, material.texture.uses_uv()),
+        };
         let p = surface.point;
-        // The normal on the ray's side of the surface: secondary rays leave from there.
-        let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
-        let offset = surface_offset(p);
-        let lit_from = p + offset * side;
+        let (side, lit_from) = leaving(ray, &surface);
         // The normal lights are judged by: the same, unless shading one-sided.
         let n = if self.one_sided && material.transparency == 0.0 { surface.normal } else { side };
 
@@ -140,22 +194,60 @@ impl<'w, 's> Integrator<'w, 's> {
         };
 
         if depth < self.max_depth {
-            if material.reflectivity > 0.0 {
-                stats.reflection += 1;
-                let r = Ray { origin: lit_from, dir: reflect(ray.dir, side) };
-                color += material.reflectivity * self.trace(&r, depth + 1, stats);
-            }
-            if material.transparency > 0.0 {
-                let (t, kind) = transmitted_ray(ray, &surface, material.ior);
-                match kind {
-                    Transmission::Refracted => stats.refraction += 1,
-                    Transmission::TotalInternalReflection => stats.reflection += 1,
+            if let Some((traced, k)) = ahead {
+                // Sent on, found and counted ahead ([`Integrator::sent_on`]).
+                let [r, t] = traced.next[k].map(|c| c as usize);
+                if material.reflectivity > 0.0 {
+                    color += material.reflectivity * self.shade_node(traced, r, depth + 1, stats);
                 }
-                color += material.transparency * self.trace(&t, depth + 1, stats);
+                if material.transparency > 0.0 {
+                    color += material.transparency * self.shade_node(traced, t, depth + 1, stats);
+                }
+            } else {
+                if material.reflectivity > 0.0 {
+                    stats.reflection += 1;
+                    color += material.reflectivity * self.trace(&reflected(ray, side, lit_from), depth + 1, stats);
+                }
+                if material.transparency > 0.0 {
+                    let (t, kind) = transmitted_ray(ray, &surface, material.ior);
+                    match kind {
+                        Transmission::Refracted => stats.refraction += 1,
+                        Transmission::TotalInternalReflection => stats.reflection += 1,
+                    }
+                    color += material.transparency * self.trace(&t, depth + 1, stats);
+                }
             }
         }
         color
     }
+}
+
+/// The rays of an image tile, and what they hit, found ahead of shading: the camera
+/// rays first, then level by level the rays their hits send on
+/// ([`Integrator::sent_on`]), so that each level's rays can be tested together.
+pub struct Traced<'a> {
+    pub nodes: &'a [(Ray, Option<(Hit, u32)>)],
+    /// Per node, the surface hit ([`Integrator::surface`]) where it sends rays on
+    /// ([`Integrator::sends`]); anything elsewhere.
+    pub surfaces: &'a [Surface],
+    /// Per node, the nodes of its reflected and transmitted rays (where it sends them).
+    pub next: &'a [[u32; 2]],
+    /// Per depth (from 1, the camera rays), the objects that may shadow that depth's
+    /// hits, light by light ([`World::may_shadow`]).
+    pub blockers: &'a [Vec<Option<Vec<u32>>>],
+}
+
+/// The normal on the ray's side of the surface, and the point just off the surface on
+/// that side, where reflected and shadow rays leave from.
+#[inline(always)]
+fn leaving(ray: &Ray, surface: &Surface) -> (Vec3, Vec3) {
+    let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
+    (side, surface.point + surface_offset(surface.point) * side)
+}
+
+#[inline(always)]
+fn reflected(ray: &Ray, side: Vec3, lit_from: Vec3) -> Ray {
+    Ray { origin: lit_from, dir: reflect(ray.dir, side) }
 }
 
 /// How a ray continued through a transparent surface.
