@@ -616,8 +616,8 @@ impl<'s> World<'s> {
         }
     }
 
-    /// Up to eight rays of [`World::closest_among_each`]: quads and spheres eight lanes
-    /// a test, other shapes ray by ray. Each ray meets the objects in the order given,
+    /// Up to eight rays of [`World::closest_among_each`]: quads, spheres, cylinders and
+    /// pointed cones eight lanes a test, other shapes ray by ray. Each ray meets the objects in the order given,
     /// with the bound its earlier hits set, as in [`World::closest_of`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
@@ -629,6 +629,8 @@ impl<'s> World<'s> {
             match (&self.meshes[i as usize], &self.scene.objects[i as usize].shape) {
                 (None, Shape::Quad(q)) => packet8::quad(q, &wide, live, &mut best, i),
                 (None, Shape::Sphere(s)) => packet8::sphere(s, &wide, live, &mut best, i),
+                (None, Shape::Cylinder(c)) => packet8::cylinder(c, &wide, live, &mut best, i),
+                (None, Shape::Cone(c)) if c.top_radius == 0.0 => packet8::pointed_cone(c, &wide, live, &mut best, i),
                 _ => {
                     for (lane, (ray, _)) in rays.iter().enumerate() {
                         if let Some(h) = self.intersect_object(i as usize, ray, 0.0, best.t[lane]) {

@@ -7,7 +7,7 @@
 //!
 //! Calling these is sound only where the processor has AVX2.
 
-use crate::geometry::{Hit, Quad, Sphere, part};
+use crate::geometry::{Cone, Cylinder, Hit, Quad, Sphere, part};
 use crate::math::{Ray, Vec2};
 use std::arch::x86_64::*;
 
@@ -175,6 +175,153 @@ pub fn sphere(s: &Sphere, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
     }
 }
 
+/// The nearest of a shape's candidate hits so far, per lane ([`crate::geometry`]'s
+/// `Nearest`): a candidate counts where it lies past 0 and before the best so far.
+struct Nearest8 {
+    t: __m256,
+    part: __m256,
+    taken: __m256,
+}
+
+impl Nearest8 {
+    #[target_feature(enable = "avx2")]
+    fn new(best: &Best8) -> Self {
+        Nearest8 { t: load(&best.t), part: _mm256_setzero_ps(), taken: _mm256_setzero_ps() }
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn improves(&self, t: __m256) -> __m256 {
+        _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(t, _mm256_setzero_ps()), _mm256_cmp_ps::<_CMP_LT_OQ>(t, self.t))
+    }
+
+    /// Takes `t` as part `part` in the lanes of `ok`.
+    #[target_feature(enable = "avx2")]
+    fn take(&mut self, ok: __m256, t: __m256, part: u8) {
+        self.t = _mm256_blendv_ps(self.t, t, ok);
+        self.part = _mm256_blendv_ps(self.part, _mm256_set1_ps(part as f32), ok);
+        self.taken = _mm256_or_ps(self.taken, ok);
+    }
+
+    /// Keeps the hits taken, in the lanes `live`, as object `index`.
+    #[target_feature(enable = "avx2")]
+    fn keep(self, best: &mut Best8, live: u32, index: u32) {
+        let mut hit = _mm256_movemask_ps(self.taken) as u32 & live;
+        let (t, part) = (store(self.t), store(self.part));
+        while hit != 0 {
+            let lane = hit.trailing_zeros() as usize;
+            hit &= hit - 1;
+            best.set(lane, Hit { t: t[lane], uv: Vec2::ZERO, part: part[lane] as u8, prim: 0 }, index);
+        }
+    }
+}
+
+/// `a ≤ x ≤ b`.
+#[target_feature(enable = "avx2")]
+fn between(x: __m256, a: f32, b: f32) -> __m256 {
+    _mm256_and_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(x, _mm256_set1_ps(a)), _mm256_cmp_ps::<_CMP_LE_OQ>(x, _mm256_set1_ps(b)))
+}
+
+/// `-(b + √disc·sign(b))`, the root of the half-b quadratic that does not cancel.
+#[target_feature(enable = "avx2")]
+fn stable_root(b: __m256, disc: __m256) -> __m256 {
+    let sign = _mm256_set1_ps(-0.0);
+    let root = _mm256_or_ps(_mm256_andnot_ps(sign, _mm256_sqrt_ps(disc)), _mm256_and_ps(sign, b));
+    _mm256_xor_ps(_mm256_add_ps(b, root), sign)
+}
+
+/// `v - s·axis`, component by component.
+#[target_feature(enable = "avx2")]
+fn minus_along(v: &[__m256; 3], s: __m256, axis: &[__m256; 3]) -> [__m256; 3] {
+    std::array::from_fn(|i| _mm256_sub_ps(v[i], _mm256_mul_ps(s, axis[i])))
+}
+
+/// [`Cylinder::intersect`] in eight lanes, as [`quad`].
+#[target_feature(enable = "avx2")]
+pub fn cylinder(cyl: &Cylinder, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
+    let (mul, sub, add, div) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps, _mm256_div_ps);
+    let (base, axis) = (splat3(cyl.base), splat3(cyl.axis));
+    let o: [__m256; 3] = std::array::from_fn(|i| sub(r.o[i], base[i]));
+    let oa = dot(&o, &axis);
+    let da = dot(&r.d, &axis);
+    let (o_perp, d_perp) = (minus_along(&o, oa, &axis), minus_along(&r.d, da, &axis));
+    let r2 = cyl.radius * cyl.radius;
+    let mut near = Nearest8::new(best);
+
+    let a = dot(&d_perp, &d_perp);
+    let wall = _mm256_cmp_ps::<_CMP_GT_OQ>(a, _mm256_set1_ps(1e-12));
+    let b = dot(&o_perp, &d_perp);
+    let closest = minus_along(&o_perp, div(b, a), &d_perp);
+    let disc = mul(a, sub(_mm256_set1_ps(r2), dot(&closest, &closest)));
+    let real = _mm256_and_ps(wall, _mm256_cmp_ps::<_CMP_GE_OQ>(disc, _mm256_setzero_ps()));
+    if _mm256_movemask_ps(real) as u32 & live != 0 {
+        let c = sub(dot(&o_perp, &o_perp), _mm256_set1_ps(r2));
+        let q = stable_root(b, disc);
+        for t in [div(c, q), div(q, a)] {
+            let h = add(oa, mul(t, da));
+            near.take(_mm256_and_ps(_mm256_and_ps(real, near.improves(t)), between(h, 0.0, cyl.height)), t, part::SIDE);
+        }
+    }
+    if cyl.caps {
+        let across = _mm256_cmp_ps::<_CMP_NEQ_UQ>(da, _mm256_setzero_ps());
+        for (plane, id) in [(0.0, part::BASE_CAP), (cyl.height, part::TOP_CAP)] {
+            let t = div(sub(_mm256_set1_ps(plane), oa), da);
+            let p: [__m256; 3] = std::array::from_fn(|i| add(o_perp[i], mul(t, d_perp[i])));
+            let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(dot(&p, &p), _mm256_set1_ps(r2));
+            near.take(_mm256_and_ps(_mm256_and_ps(across, near.improves(t)), inside), t, id);
+        }
+    }
+    near.keep(best, live, index);
+}
+
+/// [`Cone::intersect`] in eight lanes for a pointed cone (`top_radius` 0), as [`quad`].
+#[target_feature(enable = "avx2")]
+pub fn pointed_cone(cone: &Cone, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
+    debug_assert!(cone.top_radius == 0.0);
+    let (mul, sub, add, div) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps, _mm256_div_ps);
+    let (apex, axis) = (splat3(cone.apex()), splat3(cone.axis));
+    let o: [__m256; 3] = std::array::from_fn(|i| sub(r.o[i], apex[i]));
+    let da = dot(&r.d, &axis);
+    let d_perp = minus_along(&r.d, da, &axis);
+    let mut near = Nearest8::new(best);
+
+    let t0 = _mm256_xor_ps(dot(&o, &r.d), _mm256_set1_ps(-0.0));
+    let o0: [__m256; 3] = std::array::from_fn(|i| add(o[i], mul(t0, r.d[i])));
+    let oa0 = dot(&o0, &axis);
+    let o_perp = minus_along(&o0, oa0, &axis);
+    let k = cone.radius / cone.height;
+    let k2 = _mm256_set1_ps(k * k);
+    let a = sub(dot(&d_perp, &d_perp), mul(mul(k2, da), da));
+    let b = sub(dot(&o_perp, &d_perp), mul(mul(k2, oa0), da));
+    let c = sub(dot(&o_perp, &o_perp), mul(mul(k2, oa0), oa0));
+    let disc = sub(mul(b, b), mul(a, c));
+    let real = _mm256_cmp_ps::<_CMP_GE_OQ>(disc, _mm256_setzero_ps());
+    if _mm256_movemask_ps(real) as u32 & live != 0 {
+        let q = stable_root(b, disc);
+        // `q / a`, or NaN (no root) where `a` is 0.
+        let flat = _mm256_cmp_ps::<_CMP_EQ_OQ>(a, _mm256_setzero_ps());
+        let far = _mm256_blendv_ps(div(q, a), _mm256_set1_ps(f32::NAN), flat);
+        for dt in [div(c, q), far] {
+            let t = add(t0, dt);
+            let s = add(oa0, mul(dt, da));
+            near.take(
+                _mm256_and_ps(_mm256_and_ps(real, near.improves(t)), between(s, -cone.height, 0.0)),
+                t,
+                part::SIDE,
+            );
+        }
+    }
+    if cone.cap {
+        let across = _mm256_cmp_ps::<_CMP_NEQ_UQ>(da, _mm256_setzero_ps());
+        let oa = dot(&o, &axis);
+        let t = div(sub(_mm256_set1_ps(-cone.height), oa), da);
+        let off = minus_along(&o, oa, &axis);
+        let radial: [__m256; 3] = std::array::from_fn(|i| add(off[i], mul(t, d_perp[i])));
+        let inside = _mm256_cmp_ps::<_CMP_LE_OQ>(dot(&radial, &radial), _mm256_set1_ps(cone.radius * cone.radius));
+        near.take(_mm256_and_ps(_mm256_and_ps(across, near.improves(t)), inside), t, part::BASE_CAP);
+    }
+    near.keep(best, live, index);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -194,7 +341,7 @@ mod tests {
     fn check(
         f: &mut impl FnMut() -> f32,
         aim: Vec3,
-        scalar: impl Fn(&Ray, f32) -> Option<Hit>,
+        mut scalar: impl FnMut(&Ray, f32) -> Option<Hit>,
         wide: impl Fn(&Rays8, &mut Best8),
     ) -> u32 {
         let from = Vec3::new(f(), f(), f()) * 3.0;
@@ -249,5 +396,32 @@ mod tests {
                 check(&mut f, s.center, |r, t| s.intersect(r, 0.0, t), |r, b| unsafe { sphere(&s, r, 0xff, b, 9) });
         }
         assert!(quad_hits > 5_000 && sphere_hits > 5_000, "{quad_hits} {sphere_hits}");
+        let (mut cylinder_hits, mut cone_hits) = ([0; 3], [0; 3]);
+        for _ in 0..5_000 {
+            let (base, axis) = (Vec3::new(f(), f(), f()), Vec3::new(f(), f(), f()));
+            let (radius, height) = (f().abs() + 0.05, f().abs() * 2.0 + 0.05);
+            let c = Cylinder::new(base, axis, radius, height, f() > -1.0);
+            let aim = c.base + c.axis * (height * 0.5);
+            // SAFETY (in the closures): checked for AVX2 above.
+            check(
+                &mut f,
+                aim,
+                |r, t| c.intersect(r, 0.0, t).inspect(|h| cylinder_hits[h.part as usize] += 1),
+                |r, b| unsafe { cylinder(&c, r, 0xff, b, 9) },
+            );
+            let k = Cone::new(base, axis, radius, height, f() > -1.0);
+            let aim = k.base + k.axis * (height * f().abs() * 0.5);
+            check(
+                &mut f,
+                aim,
+                |r, t| k.intersect(r, 0.0, t).inspect(|h| cone_hits[h.part as usize] += 1),
+                |r, b| unsafe { pointed_cone(&k, r, 0xff, b, 9) },
+            );
+        }
+        // Side walls and caps, both caps of a cylinder.
+        assert!(
+            cylinder_hits.iter().all(|&n| n > 1_000) && cone_hits[..2].iter().all(|&n| n > 1_000),
+            "{cylinder_hits:?} {cone_hits:?}"
+        );
     }
 }
