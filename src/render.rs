@@ -6,7 +6,7 @@ use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::geometry::{Hit, Surface};
-use crate::integrator::{Integrator, RayStats, Traced};
+use crate::integrator::{Integrator, Lit, RayStats, Traced};
 use crate::math::{Aabb, Color, Ray, Vec2, Vec3};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
@@ -32,6 +32,12 @@ struct TileBuffers {
     /// Per depth, per light, the objects that may shadow the hits: the first `levels`.
     blockers: Vec<Vec<Option<Vec<u32>>>>,
     levels: usize,
+    /// Per node and light, the light seen from its hit ([`Traced`]).
+    lit: Vec<Lit>,
+    /// Shadow rays of one level to one light: node, ray, length; and what they let through.
+    shadows: Vec<(u32, (Ray, f32))>,
+    shadow_rays: Vec<(Ray, f32)>,
+    visible: Vec<f32>,
     /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
     /// the node sending it, the ray.
     sent: Vec<((u32, u32), u32, Ray)>,
@@ -291,8 +297,8 @@ impl<'s> Renderer<'s> {
             world.closest_among_each(seen, found);
             self.trace_ahead(world, integrator, buf, stats);
         }
-        let TileBuffers { pixels, samples, found, next, surfaces, blockers, levels, .. } = buf;
-        let traced = Traced { nodes: found, surfaces, next, blockers: &blockers[..*levels] };
+        let TileBuffers { pixels, samples, found, next, surfaces, blockers, levels, lit, .. } = buf;
+        let traced = Traced { nodes: found, surfaces, next, blockers: &blockers[..*levels], lit };
         let n = samples.len();
         for (p, pixel) in found[..camera_rays].chunks(n).enumerate() {
             let mut sum = Color::ZERO;
@@ -313,10 +319,25 @@ impl<'s> Renderer<'s> {
     /// or transmitted) and a group tested only against what it may meet
     /// ([`World::seen_along`]); and per level, the objects that may shadow its hits.
     fn trace_ahead(&self, world: &World, integrator: &Integrator, buf: &mut TileBuffers, stats: &mut RayStats) {
-        let TileBuffers { found, next, surfaces, seen, hits, blockers, levels, sent, .. } = buf;
+        let TileBuffers {
+            found,
+            next,
+            surfaces,
+            seen,
+            hits,
+            blockers,
+            levels,
+            sent,
+            lit,
+            shadows,
+            shadow_rays,
+            visible,
+            ..
+        } = buf;
         next.clear();
         next.resize(found.len(), [NONE; 2]);
         surfaces.clear();
+        lit.clear();
         // One-sided shading may send a shadow ray from a surface's back through the
         // surface itself, which the culling assumes it does not.
         let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
@@ -326,7 +347,7 @@ impl<'s> Renderer<'s> {
             hits.clear();
             for (ray, hit) in &found[level.clone()] {
                 surfaces.push(match hit {
-                    Some((h, i)) if integrator.sends(*i, depth) => integrator.surface(ray, h, *i),
+                    Some((h, i)) => integrator.surface(ray, h, *i),
                     _ => Surface { point: Vec3::ZERO, normal: Vec3::ZERO, uv: Vec2::ZERO },
                 });
                 if let Some((h, i)) = hit {
@@ -348,6 +369,36 @@ impl<'s> Renderer<'s> {
                 *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
             }
             *levels = d;
+            // Each light as the level's hits see it, the shadow rays to it tested
+            // together.
+            let all_lights = self.scene.lights.len();
+            lit.resize(found.len() * all_lights, Lit::default());
+            for i in 0..all_lights {
+                shadows.clear();
+                for k in level.clone() {
+                    if let (ray, Some((_, index))) = &found[k]
+                        && integrator.may_light(*index)
+                    {
+                        let (seen_light, shadow, distance) = integrator.light_path(ray, &surfaces[k], *index, i);
+                        lit[k * all_lights + i] = seen_light;
+                        if seen_light.n_dot_l > 0.0 {
+                            shadows.push((k as u32, (shadow, distance)));
+                        }
+                    }
+                }
+                shadow_rays.clear();
+                shadow_rays.extend(shadows.iter().map(|s| s.1));
+                match level_blockers.get(i) {
+                    Some(Some(few)) => world.transmittance_among_each(few, shadow_rays, visible),
+                    _ => {
+                        visible.clear();
+                        visible.extend(shadow_rays.iter().map(|(r, t)| world.transmittance(r, *t)));
+                    }
+                }
+                for (&(k, _), &v) in shadows.iter().zip(visible.iter()) {
+                    lit[k as usize * all_lights + i].visible = v;
+                }
+            }
             if depth >= self.max_depth {
                 break;
             }

@@ -33,6 +33,11 @@ impl Best8 {
         Best8 { t: [f32::INFINITY; 8], u: [0.0; 8], v: [0.0; 8], part: [0; 8], prim: [0; 8], index: [u32::MAX; 8] }
     }
 
+    /// No hit yet, each lane's bound from `t`.
+    pub fn within(t: [f32; 8]) -> Self {
+        Best8 { t, ..Best8::new() }
+    }
+
     pub fn set(&mut self, lane: usize, h: Hit, index: u32) {
         (self.t[lane], self.u[lane], self.v[lane], self.part[lane], self.prim[lane]) =
             (h.t, h.uv.x, h.uv.y, h.part, h.prim);

@@ -67,6 +67,35 @@ impl<'w, 's> Integrator<'w, 's> {
         object.shape.surface_uv(ray, hit, scene.material(object.material).texture.uses_uv())
     }
 
+    /// The normal lights are judged by at a hit on object `index`: `side`, the normal on
+    /// the ray's side, unless shading one-sided.
+    #[inline(always)]
+    fn light_normal(&self, surface: &Surface, side: Vec3, index: u32) -> Vec3 {
+        let scene = self.world.scene();
+        let material = scene.material(scene.objects[index as usize].material);
+        if self.one_sided && material.transparency == 0.0 { surface.normal } else { side }
+    }
+
+    /// Whether shading a hit on object `index` may look at the lights (a superset of
+    /// where [`Integrator::shade`] does: it also skips black texels).
+    #[inline]
+    pub fn may_light(&self, index: u32) -> bool {
+        let scene = self.world.scene();
+        let m = scene.material(scene.objects[index as usize].material);
+        !(m.local_share() == 0.0 && !(m.specular > 0.0)) && (m.specular > 0.0 || m.diffuse != 0.0)
+    }
+
+    /// Light `i` as shading sees it from a hit of `ray` on object `index` at `surface`:
+    /// the direction, the cosine with the normal, and the shadow ray with its length
+    /// (sent only where the cosine is positive).
+    #[inline]
+    pub fn light_path(&self, ray: &Ray, surface: &Surface, index: u32, i: usize) -> (Lit, Ray, f32) {
+        let (side, lit_from) = leaving(ray, surface);
+        let n = self.light_normal(surface, side, index);
+        let (l, distance, n_dot_l) = towards(self.world.scene().lights[i].position, lit_from, n);
+        (Lit { l, n_dot_l, visible: 0.0 }, Ray { origin: lit_from, dir: l }, distance)
+    }
+
     /// Whether a hit on object `index` by the `depth`-th ray of a chain sends rays on.
     #[inline]
     pub fn sends(&self, index: u32, depth: u32) -> bool {
@@ -143,13 +172,12 @@ impl<'w, 's> Integrator<'w, 's> {
         let object = &scene.objects[*index as usize];
         let material = scene.material(object.material);
         let surface = match ahead {
-            Some((traced, k)) if self.sends(*index, depth) => traced.surfaces[k],
-            _ => object.shape.surface_uv(ray, hit, material.texture.uses_uv()),
+            Some((traced, k)) => traced.surfaces[k],
+            None => object.shape.surface_uv(ray, hit, material.texture.uses_uv()),
         };
         let p = surface.point;
         let (side, lit_from) = leaving(ray, &surface);
-        // The normal lights are judged by: the same, unless shading one-sided.
-        let n = if self.one_sided && material.transparency == 0.0 { surface.normal } else { side };
+        let n = self.light_normal(&surface, side, *index);
 
         let local_share = material.local_share();
         // A surface with no own share and no highlight (a perfect mirror) shows nothing
@@ -165,18 +193,28 @@ impl<'w, 's> Integrator<'w, 's> {
             // (the ceiling's dark squares) without a highlight needs no shadow rays.
             if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
                 for (i, light) in scene.lights.iter().enumerate() {
-                    let to_light = light.position - lit_from;
-                    let distance = to_light.length();
-                    let l = to_light / distance;
-                    let n_dot_l = n.dot(l);
-                    if n_dot_l <= 0.0 {
-                        continue; // the light is behind the surface
-                    }
-                    stats.shadow += 1;
-                    let shadow = Ray { origin: lit_from, dir: l };
-                    let visible = match blockers.get(i) {
-                        Some(Some(few)) => self.world.transmittance_among(few, &shadow, distance),
-                        _ => self.world.transmittance(&shadow, distance),
+                    let (l, n_dot_l, visible) = match ahead {
+                        Some((traced, k)) => {
+                            let lit = &traced.lit[k * scene.lights.len() + i];
+                            if lit.n_dot_l <= 0.0 {
+                                continue; // the light is behind the surface
+                            }
+                            stats.shadow += 1;
+                            (lit.l, lit.n_dot_l, lit.visible)
+                        }
+                        None => {
+                            let (l, distance, n_dot_l) = towards(light.position, lit_from, n);
+                            if n_dot_l <= 0.0 {
+                                continue;
+                            }
+                            stats.shadow += 1;
+                            let shadow = Ray { origin: lit_from, dir: l };
+                            let visible = match blockers.get(i) {
+                                Some(Some(few)) => self.world.transmittance_among(few, &shadow, distance),
+                                _ => self.world.transmittance(&shadow, distance),
+                            };
+                            (l, n_dot_l, visible)
+                        }
                     };
                     if visible == 0.0 {
                         continue;
@@ -227,14 +265,35 @@ impl<'w, 's> Integrator<'w, 's> {
 /// ([`Integrator::sent_on`]), so that each level's rays can be tested together.
 pub struct Traced<'a> {
     pub nodes: &'a [(Ray, Option<(Hit, u32)>)],
-    /// Per node, the surface hit ([`Integrator::surface`]) where it sends rays on
-    /// ([`Integrator::sends`]); anything elsewhere.
+    /// Per node, the surface hit ([`Integrator::surface`]; anything where none is).
     pub surfaces: &'a [Surface],
     /// Per node, the nodes of its reflected and transmitted rays (where it sends them).
     pub next: &'a [[u32; 2]],
     /// Per depth (from 1, the camera rays), the objects that may shadow that depth's
     /// hits, light by light ([`World::may_shadow`]).
     pub blockers: &'a [Vec<Option<Vec<u32>>>],
+    /// Per node and light (`k * lights + i`), the light as its hit sees it, where
+    /// [`Integrator::may_light`]; anything elsewhere.
+    pub lit: &'a [Lit],
+}
+
+/// A light seen from a hit: unit direction `l` towards it, `n_dot_l` (the light is
+/// behind the surface unless positive), and the share of it the shadow ray lets
+/// through (where `n_dot_l` is positive).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Lit {
+    pub l: Vec3,
+    pub n_dot_l: f32,
+    pub visible: f32,
+}
+
+/// Direction and distance to `light` from `from`, and the cosine with normal `n`.
+#[inline(always)]
+fn towards(light: Vec3, from: Vec3, n: Vec3) -> (Vec3, f32, f32) {
+    let to_light = light - from;
+    let distance = to_light.length();
+    let l = to_light / distance;
+    (l, distance, n.dot(l))
 }
 
 /// The normal on the ray's side of the surface, and the point just off the surface on
