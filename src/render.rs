@@ -5,9 +5,9 @@
 use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
-use crate::geometry::{Hit, Surface};
-use crate::integrator::{Integrator, Lit, RayStats, Traced};
-use crate::math::{Aabb, Color, Ray, Vec2, Vec3};
+use crate::geometry::Hit;
+use crate::integrator::{Integrator, Lit, PackedSurface, RayStats, Traced};
+use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -26,7 +26,7 @@ struct TileBuffers {
     /// The tile's rays and their hits: camera rays, then those sent on ([`Traced`]).
     found: Vec<(Ray, Option<(Hit, u32)>)>,
     next: Vec<[u32; 2]>,
-    surfaces: Vec<Surface>,
+    surfaces: Vec<PackedSurface>,
     seen: Vec<u32>,
     hits: Vec<(u32, Aabb)>,
     /// Per depth, per light, the objects that may shadow the hits: the first `levels`.
@@ -345,11 +345,11 @@ impl<'s> Renderer<'s> {
         loop {
             // Per object hit, a box round its hit points.
             hits.clear();
-            for (ray, hit) in &found[level.clone()] {
-                surfaces.push(match hit {
-                    Some((h, i)) => integrator.surface(ray, h, *i),
-                    _ => Surface { point: Vec3::ZERO, normal: Vec3::ZERO, uv: Vec2::ZERO },
-                });
+            surfaces.resize(found.len(), PackedSurface::default());
+            for (k, (ray, hit)) in found.iter().enumerate().skip(level.start) {
+                if let Some((h, i)) = hit {
+                    surfaces[k] = integrator.surface(ray, h, *i);
+                }
                 if let Some((h, i)) = hit {
                     match hits.iter_mut().find(|(o, _)| o == i) {
                         Some((_, b)) => *b = b.grow(ray.at(h.t)),
@@ -379,7 +379,7 @@ impl<'s> Renderer<'s> {
                     if let (ray, Some((_, index))) = &found[k]
                         && integrator.may_light(*index)
                     {
-                        let (seen_light, shadow, distance) = integrator.light_path(ray, &surfaces[k], *index, i);
+                        let (seen_light, shadow, distance) = integrator.light_path(ray, &surfaces[k].get(), *index, i);
                         lit[k * all_lights + i] = seen_light;
                         if seen_light.n_dot_l > 0.0 {
                             shadows.push((k as u32, (shadow, distance)));
@@ -407,7 +407,9 @@ impl<'s> Renderer<'s> {
                 if let (ray, Some((_, i))) = &found[k]
                     && integrator.sends(*i, depth)
                 {
-                    for (slot, r) in integrator.sent_on(ray, &surfaces[k], *i, depth, stats).into_iter().enumerate() {
+                    for (slot, r) in
+                        integrator.sent_on(ray, &surfaces[k].get(), *i, depth, stats).into_iter().enumerate()
+                    {
                         if let Some(r) = r {
                             sent.push(((*i, slot as u32), k as u32, r));
                         }

@@ -100,15 +100,23 @@ impl Shape {
     /// read back wider, which stalls store forwarding in the shading that follows.
     #[inline(always)]
     pub fn surface_uv(&self, ray: &Ray, hit: &Hit, uv: bool) -> Surface {
+        self.surface_as(ray, hit, uv)
+    }
+
+    /// [`Shape::surface_uv`] converted to `T` in each shape's own branch: a form held in
+    /// registers (such as vectors) then leaves the match without being assembled on the
+    /// stack and copied out wider than written.
+    #[inline(always)]
+    pub fn surface_as<T: From<Surface>>(&self, ray: &Ray, hit: &Hit, uv: bool) -> T {
         match self {
-            Shape::Sphere(s) => s.surface_uv(ray, hit, uv),
-            Shape::Quad(s) => s.surface(ray, hit),
-            Shape::Polygon(s) => s.surface(ray, hit),
-            Shape::Cylinder(s) => s.surface_uv(ray, hit, uv),
-            Shape::Cone(s) => s.surface_uv(ray, hit, uv),
-            Shape::Triangle(s) => s.surface(ray, hit),
-            Shape::Mesh(s) => s.surface(ray, hit),
-            Shape::Transformed(s) => s.surface_uv(ray, hit, uv),
+            Shape::Sphere(s) => s.surface_uv(ray, hit, uv).into(),
+            Shape::Quad(s) => s.surface(ray, hit).into(),
+            Shape::Polygon(s) => s.surface(ray, hit).into(),
+            Shape::Cylinder(s) => s.surface_uv(ray, hit, uv).into(),
+            Shape::Cone(s) => s.surface_uv(ray, hit, uv).into(),
+            Shape::Triangle(s) => s.surface(ray, hit).into(),
+            Shape::Mesh(s) => s.surface(ray, hit).into(),
+            Shape::Transformed(s) => s.surface_uv(ray, hit, uv).into(),
         }
     }
 
