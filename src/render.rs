@@ -34,8 +34,9 @@ struct TileBuffers {
     levels: usize,
     /// Per node and light, the light seen from its hit ([`Traced`]).
     lit: Vec<Lit>,
-    /// Shadow rays of one level to one light: node, ray, length; and what they let through.
-    shadows: Vec<(u32, (Ray, f32))>,
+    /// Shadow rays of one level to one light: the nodes sending them, the rays and their
+    /// lengths, and what they let through.
+    shadows: Vec<u32>,
     shadow_rays: Vec<(Ray, f32)>,
     visible: Vec<f32>,
     /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
@@ -314,43 +315,26 @@ impl<'s> Renderer<'s> {
     }
 
     /// For a culled tile whose camera rays' hits are found (`buf.found`): level by level,
-    /// the rays those hits send on, and what they hit, appended to `buf.found` (linked
-    /// by `buf.next`), each level grouped by the object its rays leave and how (reflected
-    /// or transmitted) and a group tested only against what it may meet
-    /// ([`World::seen_along`]); and per level, the objects that may shadow its hits.
+    /// the surfaces hit, the objects that may shadow them, the lights as they see them
+    /// ([`Renderer::look_at_lights`]), and the rays they send on with what those hit
+    /// ([`Renderer::send_on`]), until no rays are sent or the depth limit is reached.
     fn trace_ahead(&self, world: &World, integrator: &Integrator, buf: &mut TileBuffers, stats: &mut RayStats) {
-        let TileBuffers {
-            found,
-            next,
-            surfaces,
-            seen,
-            hits,
-            blockers,
-            levels,
-            sent,
-            lit,
-            shadows,
-            shadow_rays,
-            visible,
-            ..
-        } = buf;
-        next.clear();
-        next.resize(found.len(), [NONE; 2]);
-        surfaces.clear();
-        lit.clear();
+        buf.next.clear();
+        buf.next.resize(buf.found.len(), [NONE; 2]);
+        buf.surfaces.clear();
+        buf.lit.clear();
         // One-sided shading may send a shadow ray from a surface's back through the
         // surface itself, which the culling assumes it does not.
         let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
-        let (mut level, mut depth) = (0..found.len(), 1);
+        let (mut level, mut depth) = (0..buf.found.len(), 1);
         loop {
-            // Per object hit, a box round its hit points.
+            let TileBuffers { found, surfaces, hits, blockers, levels, .. } = &mut *buf;
+            // The surfaces hit and, per object hit, a box round its hit points.
             hits.clear();
             surfaces.resize(found.len(), PackedSurface::default());
             for (k, (ray, hit)) in found.iter().enumerate().skip(level.start) {
                 if let Some((h, i)) = hit {
                     surfaces[k] = integrator.surface(ray, h, *i);
-                }
-                if let Some((h, i)) = hit {
                     match hits.iter_mut().find(|(o, _)| o == i) {
                         Some((_, b)) => *b = b.grow(ray.at(h.t)),
                         None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
@@ -358,89 +342,119 @@ impl<'s> Renderer<'s> {
                 }
             }
             // Kept from tile to tile, to allocate nothing.
-            let d = depth as usize;
-            if blockers.len() < d {
+            if blockers.len() < depth {
                 blockers.push(Vec::new());
             }
-            let level_blockers = &mut blockers[d - 1];
+            let level_blockers = &mut blockers[depth - 1];
             level_blockers.resize_with(lights.len(), || None);
             for (b, l) in level_blockers.iter_mut().zip(lights) {
                 let mut few = b.take().unwrap_or_default();
                 *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
             }
-            *levels = d;
-            // Each light as the level's hits see it, the shadow rays to it tested
-            // together.
-            let all_lights = self.scene.lights.len();
-            lit.resize(found.len() * all_lights, Lit::default());
-            for i in 0..all_lights {
-                shadows.clear();
-                for k in level.clone() {
-                    if let (ray, Some((_, index))) = &found[k]
-                        && integrator.may_light(*index)
-                    {
-                        let (seen_light, shadow, distance) = integrator.light_path(ray, &surfaces[k].get(), *index, i);
-                        lit[k * all_lights + i] = seen_light;
-                        if seen_light.n_dot_l > 0.0 {
-                            shadows.push((k as u32, (shadow, distance)));
-                        }
-                    }
-                }
-                shadow_rays.clear();
-                shadow_rays.extend(shadows.iter().map(|s| s.1));
-                match level_blockers.get(i) {
-                    Some(Some(few)) => world.transmittance_among_each(few, shadow_rays, visible),
-                    _ => {
-                        visible.clear();
-                        visible.extend(shadow_rays.iter().map(|(r, t)| world.transmittance(r, *t)));
-                    }
-                }
-                for (&(k, _), &v) in shadows.iter().zip(visible.iter()) {
-                    lit[k as usize * all_lights + i].visible = v;
-                }
-            }
-            if depth >= self.max_depth {
+            *levels = depth;
+            self.look_at_lights(world, integrator, buf, level.clone(), depth);
+            if depth as u32 >= self.max_depth {
                 break;
             }
-            sent.clear();
-            for k in level.clone() {
-                if let (ray, Some((_, i))) = &found[k]
-                    && integrator.sends(*i, depth)
-                {
-                    for (slot, r) in
-                        integrator.sent_on(ray, &surfaces[k].get(), *i, depth, stats).into_iter().enumerate()
-                    {
-                        if let Some(r) = r {
-                            sent.push(((*i, slot as u32), k as u32, r));
-                        }
-                    }
-                }
+            match self.send_on(world, integrator, buf, level, depth, stats) {
+                Some(next_level) => (level, depth) = (next_level, depth + 1),
+                None => break,
             }
-            if sent.is_empty() {
-                break;
-            }
-            sent.sort_by_key(|&(group, ..)| group);
-            let start = found.len();
-            for (j, &(_, parent, ray)) in sent.iter().enumerate() {
-                let (_, slot) = sent[j].0;
-                next[parent as usize][slot as usize] = (start + j) as u32;
-                found.push((ray, None));
-                next.push([NONE; 2]);
-            }
-            let mut at = start;
-            for group in sent.chunk_by(|a, b| a.0 == b.0) {
-                let rays = &mut found[at..at + group.len()];
-                at += group.len();
-                if rays.len() >= 4 && world.seen_along(rays, seen) {
-                    world.closest_among_each(seen, rays);
-                } else {
-                    for (ray, hit) in rays {
-                        *hit = world.closest(ray, 0.0, f32::INFINITY);
-                    }
-                }
-            }
-            (level, depth) = (start..found.len(), depth + 1);
         }
+    }
+
+    /// Each light as the hits of nodes `level` (at `depth`) see it, into `buf.lit`, the
+    /// shadow rays to it tested together.
+    fn look_at_lights(
+        &self,
+        world: &World,
+        integrator: &Integrator,
+        buf: &mut TileBuffers,
+        level: std::ops::Range<usize>,
+        depth: usize,
+    ) {
+        let TileBuffers { found, surfaces, blockers, lit, shadows, shadow_rays, visible, .. } = buf;
+        let lights = self.scene.lights.len();
+        lit.resize(found.len() * lights, Lit::default());
+        for i in 0..lights {
+            shadows.clear();
+            shadow_rays.clear();
+            for k in level.clone() {
+                if let (ray, Some((_, index))) = &found[k]
+                    && integrator.may_light(*index)
+                {
+                    let (seen, shadow, distance) = integrator.light_path(ray, &surfaces[k].get(), *index, i);
+                    lit[k * lights + i] = seen;
+                    if seen.n_dot_l > 0.0 {
+                        shadows.push(k as u32);
+                        shadow_rays.push((shadow, distance));
+                    }
+                }
+            }
+            match blockers[depth - 1].get(i) {
+                Some(Some(few)) => world.transmittance_among_each(few, shadow_rays, visible),
+                _ => {
+                    visible.clear();
+                    visible.extend(shadow_rays.iter().map(|(r, t)| world.transmittance(r, *t)));
+                }
+            }
+            for (&k, &v) in shadows.iter().zip(visible.iter()) {
+                lit[k as usize * lights + i].visible = v;
+            }
+        }
+    }
+
+    /// The rays the hits of nodes `level` (at `depth`) send on, appended to `buf.found`
+    /// grouped by the object they leave and how (reflected or transmitted), linked by
+    /// `buf.next` and counted in `stats`, with what they hit: a group of four or more
+    /// tested only against what it may meet ([`World::seen_along`]), eight at a time.
+    /// Returns the new nodes, if any.
+    fn send_on(
+        &self,
+        world: &World,
+        integrator: &Integrator,
+        buf: &mut TileBuffers,
+        level: std::ops::Range<usize>,
+        depth: usize,
+        stats: &mut RayStats,
+    ) -> Option<std::ops::Range<usize>> {
+        let TileBuffers { found, next, surfaces, seen, sent, .. } = buf;
+        sent.clear();
+        for k in level {
+            if let (ray, Some((_, i))) = &found[k]
+                && integrator.sends(*i, depth as u32)
+            {
+                let rays = integrator.sent_on(ray, &surfaces[k].get(), *i, depth as u32, stats);
+                for (slot, r) in rays.into_iter().enumerate() {
+                    if let Some(r) = r {
+                        sent.push(((*i, slot as u32), k as u32, r));
+                    }
+                }
+            }
+        }
+        if sent.is_empty() {
+            return None;
+        }
+        sent.sort_by_key(|&(group, ..)| group);
+        let start = found.len();
+        for (j, &((_, slot), parent, ray)) in sent.iter().enumerate() {
+            next[parent as usize][slot as usize] = (start + j) as u32;
+            found.push((ray, None));
+            next.push([NONE; 2]);
+        }
+        let mut at = start;
+        for group in sent.chunk_by(|a, b| a.0 == b.0) {
+            let rays = &mut found[at..at + group.len()];
+            at += group.len();
+            if rays.len() >= 4 && world.seen_along(rays, seen) {
+                world.closest_among_each(seen, rays);
+            } else {
+                for (ray, hit) in rays {
+                    *hit = world.closest(ray, 0.0, f32::INFINITY);
+                }
+            }
+        }
+        Some(start..found.len())
     }
 
     /// Corner sampling: rows of corner rays traced in parallel, each ray once, then
