@@ -561,6 +561,62 @@ mod tests {
         assert!(one == out.image);
     }
 
+    /// Every kind of shape, mirrors and glass (refracting, so rays bounce inside it),
+    /// three lights: image tiles that find their rays' hits and shadows ahead, level by
+    /// level, must shade what tracing ray by ray without a tree shades, counts included.
+    #[test]
+    fn tiles_traced_ahead_match_tracing_ray_by_ray() {
+        use crate::geometry::{Cone, Cylinder, Mesh, Polygon, Triangle};
+        let mut scene =
+            Scene::new(Camera::new(Vec3::new(0.5, 1.0, 6.0), Vec3::new(0.0, 0.0, -2.0), Vec3::Y, 60.0, 96, 72));
+        let mirror = scene.add_material(Material::color(Color::splat(0.4)).reflective(0.8));
+        let glass = scene.add_material(Material::color(Color::new(0.2, 0.5, 0.9)).transparent(0.8, 1.5));
+        let red = scene.add_material(Material::color(Color::new(0.9, 0.2, 0.1)).reflective(0.2));
+        let plain = scene.add_material(Material::color(Color::splat(0.8)));
+        let floor = Quad::new(Vec3::new(-6.0, -1.0, 4.0), Vec3::new(12.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -12.0));
+        scene.add(floor, plain);
+        scene.add(Quad::new(Vec3::new(-6.0, -1.0, -8.0), Vec3::new(12.0, 0.0, 0.0), Vec3::new(0.0, 7.0, 0.0)), mirror);
+        scene.add(Quad::new(Vec3::new(-6.0, -1.0, 7.0), Vec3::new(0.0, 7.0, 0.0), Vec3::new(12.0, 0.0, 0.0)), mirror);
+        scene.add(Sphere::new(Vec3::new(-1.5, 0.2, -2.0), 1.2), glass);
+        scene.add(Sphere::new(Vec3::new(1.8, 0.0, -3.0), 1.0), mirror);
+        scene.add(Cylinder::new(Vec3::new(0.3, -1.0, -0.5), Vec3::Y, 0.5, 1.5, true), glass);
+        scene.add(Cone::new(Vec3::new(2.5, -1.0, -0.5), Vec3::new(0.1, 1.0, 0.0), 0.7, 1.6, true), red);
+        scene.add(Cone::truncated(Vec3::new(-2.8, -1.0, 0.0), Vec3::Y, 0.6, 0.3, 1.2, true, true), glass);
+        let hexagon = (0..6).map(|i| {
+            let a = i as f32 * std::f32::consts::TAU / 6.0;
+            Vec3::new(-0.5 + 0.6 * a.cos(), 2.2 + 0.6 * a.sin(), -4.0)
+        });
+        scene.add(Polygon::new(hexagon.collect()).unwrap(), red);
+        scene
+            .add(Triangle::new(Vec3::new(3.0, 1.5, -4.0), Vec3::new(4.0, 1.5, -4.5), Vec3::new(3.5, 2.8, -4.2)), glass);
+        let tetra = vec![
+            Vec3::new(0.8, 1.6, -1.0),
+            Vec3::new(1.6, 1.6, -1.4),
+            Vec3::new(1.1, 2.5, -1.2),
+            Vec3::new(1.2, 1.9, -0.4),
+        ];
+        scene.add(
+            Mesh::new(tetra, vec![], vec![], vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]], false).unwrap(),
+            mirror,
+        );
+        for (p, c) in
+            [(Vec3::new(4.0, 5.0, 3.0), 0.6), (Vec3::new(-4.0, 4.0, 1.0), 0.4), (Vec3::new(0.0, 3.0, -6.0), 0.3)]
+        {
+            scene.add_light(PointLight::new(p, Color::splat(c)));
+        }
+        scene.settings.max_depth = 6;
+        let render =
+            |accel| Renderer::new(&scene).unwrap().spp(4).threads(2).accel(accel).render_with_progress(&|_, _| {});
+        let (ahead, by_ray) = (render(AccelKind::Bvh), render(AccelKind::None));
+        assert_eq!(ahead.stats, by_ray.stats);
+        assert!(ahead.stats.reflection > 5_000 && ahead.stats.refraction > 2_000, "{:?}", ahead.stats);
+        assert!(ahead.image == by_ray.image);
+        // The tiles were culled and traced ahead: the camera sees few objects per tile.
+        let world = World::new(&scene, AccelKind::Bvh);
+        let (apex, edges) = scene.camera.rig().unwrap().cone(32.0, 32.0, 48.0, 48.0);
+        assert!(world.seen_from(apex, edges, &mut Vec::new()));
+    }
+
     #[test]
     fn spd_rules_limit_the_depth_to_five() {
         let scene = ball();
