@@ -646,15 +646,9 @@ impl<'s> World<'s> {
         for &i in ids {
             let mut best = packet8::Best8::within(t_max);
             let mut blocked = 0u32;
-            match (&self.meshes[i as usize], &self.scene.objects[i as usize].shape) {
-                (None, Shape::Quad(q)) => packet8::quad(q, &wide, live, &mut best, i),
-                (None, Shape::Sphere(s)) => packet8::sphere(s, &wide, live, &mut best, i),
-                (None, Shape::Cylinder(c)) => packet8::cylinder(c, &wide, live, &mut best, i),
-                (None, Shape::Cone(c)) if c.top_radius == 0.0 => packet8::pointed_cone(c, &wide, live, &mut best, i),
-                _ => {
-                    for (lane, (ray, t)) in rays.iter().enumerate() {
-                        blocked |= (self.blocks(i as usize, ray, *t) as u32) << lane;
-                    }
+            if !self.eight_lanes(i, &wide, live, &mut best) {
+                for (lane, (ray, t)) in rays.iter().enumerate() {
+                    blocked |= (self.blocks(i as usize, ray, *t) as u32) << lane;
                 }
             }
             for lane in 0..8 {
@@ -669,9 +663,26 @@ impl<'s> World<'s> {
         light.map(|l| l as f32)
     }
 
-    /// Up to eight rays of [`World::closest_among_each`]: quads, spheres, cylinders and
-    /// pointed cones eight lanes a test, other shapes ray by ray. Each ray meets the objects in the order given,
-    /// with the bound its earlier hits set, as in [`World::closest_of`].
+    /// Object `i` against the lanes `live` of `rays`, where it has an eight-lane test
+    /// (quads, spheres, cylinders, pointed cones): the lanes that hit it before their
+    /// bound in `best` keep it there. `false`, and nothing done, for other shapes.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn eight_lanes(&self, i: u32, rays: &packet8::Rays8, live: u32, best: &mut packet8::Best8) -> bool {
+        match (&self.meshes[i as usize], &self.scene.objects[i as usize].shape) {
+            (None, Shape::Quad(q)) => packet8::quad(q, rays, live, best, i),
+            (None, Shape::Sphere(s)) => packet8::sphere(s, rays, live, best, i),
+            (None, Shape::Cylinder(c)) => packet8::cylinder(c, rays, live, best, i),
+            (None, Shape::Cone(c)) if c.top_radius == 0.0 => packet8::pointed_cone(c, rays, live, best, i),
+            _ => return false,
+        }
+        true
+    }
+
+    /// Up to eight rays of [`World::closest_among_each`]: objects with an eight-lane
+    /// test ([`World::eight_lanes`]) tested once, others ray by ray. Each ray meets the
+    /// objects in the order given, with the bound its earlier hits set, as in
+    /// [`World::closest_of`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn closest_among_8(&self, ids: &[u32], rays: &mut [(Ray, Option<(Hit, u32)>)]) {
@@ -679,16 +690,10 @@ impl<'s> World<'s> {
         let wide = packet8::Rays8::new(rays);
         let mut best = packet8::Best8::new();
         for &i in ids {
-            match (&self.meshes[i as usize], &self.scene.objects[i as usize].shape) {
-                (None, Shape::Quad(q)) => packet8::quad(q, &wide, live, &mut best, i),
-                (None, Shape::Sphere(s)) => packet8::sphere(s, &wide, live, &mut best, i),
-                (None, Shape::Cylinder(c)) => packet8::cylinder(c, &wide, live, &mut best, i),
-                (None, Shape::Cone(c)) if c.top_radius == 0.0 => packet8::pointed_cone(c, &wide, live, &mut best, i),
-                _ => {
-                    for (lane, (ray, _)) in rays.iter().enumerate() {
-                        if let Some(h) = self.intersect_object(i as usize, ray, 0.0, best.t[lane]) {
-                            best.set(lane, h, i);
-                        }
+            if !self.eight_lanes(i, &wide, live, &mut best) {
+                for (lane, (ray, _)) in rays.iter().enumerate() {
+                    if let Some(h) = self.intersect_object(i as usize, ray, 0.0, best.t[lane]) {
+                        best.set(lane, h, i);
                     }
                 }
             }

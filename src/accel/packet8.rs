@@ -330,15 +330,8 @@ pub fn pointed_cone(cone: &Cone, r: &Rays8, live: u32, best: &mut Best8, index: 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::tri4::tests::numbers;
     use crate::math::Vec3;
-
-    /// Uniform numbers in [-2, 2) from a seeded LCG.
-    fn numbers(mut s: u64) -> impl FnMut() -> f32 {
-        move || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            ((s >> 40) as f32 / (1u64 << 24) as f32) * 4.0 - 2.0
-        }
-    }
 
     /// Eight rays from near `from`, some of them at `aim` (± a little), with bounds
     /// from earlier hits in some lanes; each lane's answer against the scalar test's.

@@ -141,12 +141,12 @@ pub fn intersect_pair(a: &Tri4, b: &Tri4, r: &Ray4, t_min: f32, t_max: f32) -> (
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::geometry::intersect_triangle;
 
     /// Uniform numbers in [-2, 2) from a seeded LCG.
-    fn numbers(mut s: u64) -> impl FnMut() -> f32 {
+    pub(in crate::accel) fn numbers(mut s: u64) -> impl FnMut() -> f32 {
         move || {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             ((s >> 40) as f32 / (1u64 << 24) as f32) * 4.0 - 2.0
