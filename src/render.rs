@@ -29,9 +29,8 @@ struct TileBuffers {
     surfaces: Vec<PackedSurface>,
     seen: Vec<u32>,
     hits: Vec<(u32, Aabb)>,
-    /// Per depth, per light, the objects that may shadow the hits: the first `levels`.
-    blockers: Vec<Vec<Option<Vec<u32>>>>,
-    levels: usize,
+    /// Per light, the objects that may shadow one level's hits.
+    blockers: Vec<Option<Vec<u32>>>,
     /// Per node and light, the light seen from its hit ([`Traced`]).
     lit: Vec<Lit>,
     /// Shadow rays of one level to one light: the nodes sending them, the rays and their
@@ -292,14 +291,13 @@ impl<'s> Renderer<'s> {
         // between those hits and each light.
         let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
         let culled = world.seen_from(apex, edges, seen);
-        buf.levels = 0;
         let camera_rays = found.len();
         if culled {
             world.closest_among_each(seen, found);
             self.trace_ahead(world, integrator, buf, stats);
         }
-        let TileBuffers { pixels, samples, found, next, surfaces, blockers, levels, lit, .. } = buf;
-        let traced = Traced { nodes: found, surfaces, next, blockers: &blockers[..*levels], lit };
+        let TileBuffers { pixels, samples, found, next, surfaces, lit, .. } = buf;
+        let traced = Traced { nodes: found, surfaces, next, lit };
         let n = samples.len();
         for (p, pixel) in found[..camera_rays].chunks(n).enumerate() {
             let mut sum = Color::ZERO;
@@ -326,9 +324,9 @@ impl<'s> Renderer<'s> {
         // One-sided shading may send a shadow ray from a surface's back through the
         // surface itself, which the culling assumes it does not.
         let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
-        let (mut level, mut depth) = (0..buf.found.len(), 1);
+        let (mut level, mut depth) = (0..buf.found.len(), 1u32);
         loop {
-            let TileBuffers { found, surfaces, hits, blockers, levels, .. } = &mut *buf;
+            let TileBuffers { found, surfaces, hits, blockers, .. } = &mut *buf;
             // The surfaces hit and, per object hit, a box round its hit points.
             hits.clear();
             surfaces.resize(found.len(), PackedSurface::default());
@@ -342,18 +340,13 @@ impl<'s> Renderer<'s> {
                 }
             }
             // Kept from tile to tile, to allocate nothing.
-            if blockers.len() < depth {
-                blockers.push(Vec::new());
-            }
-            let level_blockers = &mut blockers[depth - 1];
-            level_blockers.resize_with(lights.len(), || None);
-            for (b, l) in level_blockers.iter_mut().zip(lights) {
+            blockers.resize_with(lights.len(), || None);
+            for (b, l) in blockers.iter_mut().zip(lights) {
                 let mut few = b.take().unwrap_or_default();
                 *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
             }
-            *levels = depth;
-            self.look_at_lights(world, integrator, buf, level.clone(), depth);
-            if depth as u32 >= self.max_depth {
+            self.look_at_lights(world, integrator, buf, level.clone());
+            if depth >= self.max_depth {
                 break;
             }
             match self.send_on(world, integrator, buf, level, depth, stats) {
@@ -363,15 +356,14 @@ impl<'s> Renderer<'s> {
         }
     }
 
-    /// Each light as the hits of nodes `level` (at `depth`) see it, into `buf.lit`, the
-    /// shadow rays to it tested together.
+    /// Each light as the hits of nodes `level` see it, into `buf.lit`, the shadow rays
+    /// to it tested together against the objects that may shadow them (`buf.blockers`).
     fn look_at_lights(
         &self,
         world: &World,
         integrator: &Integrator,
         buf: &mut TileBuffers,
         level: std::ops::Range<usize>,
-        depth: usize,
     ) {
         let TileBuffers { found, surfaces, blockers, lit, shadows, shadow_rays, visible, .. } = buf;
         let lights = self.scene.lights.len();
@@ -391,7 +383,7 @@ impl<'s> Renderer<'s> {
                     }
                 }
             }
-            match blockers[depth - 1].get(i) {
+            match blockers.get(i) {
                 Some(Some(few)) => world.transmittance_among_each(few, shadow_rays, visible),
                 _ => {
                     visible.clear();
@@ -415,16 +407,16 @@ impl<'s> Renderer<'s> {
         integrator: &Integrator,
         buf: &mut TileBuffers,
         level: std::ops::Range<usize>,
-        depth: usize,
+        depth: u32,
         stats: &mut RayStats,
     ) -> Option<std::ops::Range<usize>> {
         let TileBuffers { found, next, surfaces, seen, sent, .. } = buf;
         sent.clear();
         for k in level {
             if let (ray, Some((_, i))) = &found[k]
-                && integrator.sends(*i, depth as u32)
+                && integrator.sends(*i, depth)
             {
-                let rays = integrator.sent_on(ray, &surfaces[k].get(), *i, depth as u32, stats);
+                let rays = integrator.sent_on(ray, &surfaces[k].get(), *i, depth, stats);
                 for (slot, r) in rays.into_iter().enumerate() {
                     if let Some(r) = r {
                         sent.push(((*i, slot as u32), k as u32, r));

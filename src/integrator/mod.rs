@@ -56,8 +56,7 @@ impl<'w, 's> Integrator<'w, 's> {
     /// Node `k` of `traced`, the `depth`-th ray of its chain.
     fn shade_node(&self, traced: &Traced, k: usize, depth: u32, stats: &mut RayStats) -> Color {
         let (ray, found) = &traced.nodes[k];
-        let blockers = traced.blockers.get(depth as usize - 1).map_or(&[][..], |b| &b[..]);
-        self.shade(ray, found, depth, blockers, Some((traced, k)), stats)
+        self.shade(ray, found, depth, Some((traced, k)), stats)
     }
 
     /// The surface that shading sees where `ray` hit object `index`.
@@ -117,11 +116,11 @@ impl<'w, 's> Integrator<'w, 's> {
         depth: u32,
         stats: &mut RayStats,
     ) -> [Option<Ray>; 2] {
-        let scene = self.world.scene();
-        let material = scene.material(scene.objects[index as usize].material);
-        if depth >= self.max_depth || !(material.reflectivity > 0.0 || material.transparency > 0.0) {
+        if !self.sends(index, depth) {
             return [None, None];
         }
+        let scene = self.world.scene();
+        let material = scene.material(scene.objects[index as usize].material);
         let (side, lit_from) = leaving(ray, surface);
         let reflected = (material.reflectivity > 0.0).then(|| {
             stats.reflection += 1;
@@ -143,7 +142,7 @@ impl<'w, 's> Integrator<'w, 's> {
         // Borrowed where `closest` wrote it: copying it out would read it back wider
         // than it was stored, which stalls store forwarding.
         let found = self.world.closest(ray, 0.0, f32::INFINITY);
-        self.shade(ray, &found, depth, &[], None, stats)
+        self.shade(ray, &found, depth, None, stats)
     }
 
     /// The colour of what `ray` found (`None`: the background).
@@ -153,16 +152,15 @@ impl<'w, 's> Integrator<'w, 's> {
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
     ///
-    /// Shadow rays to light `i` test only `blockers[i]` where that is given
-    /// ([`World::may_shadow`]). With `ahead`, node `k` of a [`Traced`] tile, the rays sent
-    /// on are its next nodes, hits found; else they are traced here.
+    /// With `ahead`, node `k` of a [`Traced`] tile, the surface, the lights as the hit
+    /// sees them and the hits of the rays sent on were all found ahead; else they are
+    /// found here.
     #[inline(always)]
     fn shade(
         &self,
         ray: &Ray,
         found: &Option<(Hit, u32)>,
         depth: u32,
-        blockers: &[Option<Vec<u32>>],
         ahead: Option<(&Traced, usize)>,
         stats: &mut RayStats,
     ) -> Color {
@@ -209,12 +207,7 @@ impl<'w, 's> Integrator<'w, 's> {
                                 continue;
                             }
                             stats.shadow += 1;
-                            let shadow = Ray { origin: lit_from, dir: l };
-                            let visible = match blockers.get(i) {
-                                Some(Some(few)) => self.world.transmittance_among(few, &shadow, distance),
-                                _ => self.world.transmittance(&shadow, distance),
-                            };
-                            (l, n_dot_l, visible)
+                            (l, n_dot_l, self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance))
                         }
                     };
                     if visible == 0.0 {
@@ -243,16 +236,11 @@ impl<'w, 's> Integrator<'w, 's> {
                     color += material.transparency * self.shade_node(traced, t, depth + 1, stats);
                 }
             } else {
-                if material.reflectivity > 0.0 {
-                    stats.reflection += 1;
-                    color += material.reflectivity * self.trace(&reflected(ray, side, lit_from), depth + 1, stats);
+                let [r, t] = self.sent_on(ray, &surface, *index, depth, stats);
+                if let Some(r) = r {
+                    color += material.reflectivity * self.trace(&r, depth + 1, stats);
                 }
-                if material.transparency > 0.0 {
-                    let (t, kind) = transmitted_ray(ray, &surface, material.ior);
-                    match kind {
-                        Transmission::Refracted => stats.refraction += 1,
-                        Transmission::TotalInternalReflection => stats.reflection += 1,
-                    }
+                if let Some(t) = t {
                     color += material.transparency * self.trace(&t, depth + 1, stats);
                 }
             }
@@ -270,9 +258,6 @@ pub struct Traced<'a> {
     pub surfaces: &'a [PackedSurface],
     /// Per node, the nodes of its reflected and transmitted rays (where it sends them).
     pub next: &'a [[u32; 2]],
-    /// Per depth (from 1, the camera rays), the objects that may shadow that depth's
-    /// hits, light by light ([`World::may_shadow`]).
-    pub blockers: &'a [Vec<Option<Vec<u32>>>],
     /// Per node and light (`k * lights + i`), the light as its hit sees it, where
     /// [`Integrator::may_light`]; anything elsewhere.
     pub lit: &'a [Lit],
