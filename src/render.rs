@@ -6,7 +6,7 @@ use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::geometry::Hit;
-use crate::integrator::{Integrator, Lit, PackedSurface, RayStats, Traced};
+use crate::integrator::{Integrator, LightFrames, Lit, PackedSurface, RayStats, Traced};
 use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
@@ -33,11 +33,8 @@ struct TileBuffers {
     blockers: Vec<Option<Vec<u32>>>,
     /// Per node and light, the light seen from its hit ([`Traced`]).
     lit: Vec<Lit>,
-    /// Shadow rays of one level to one light: the nodes sending them, the rays and their
-    /// lengths, and what they let through.
-    shadows: Vec<u32>,
-    shadow_rays: Vec<(Ray, f32)>,
-    visible: Vec<f32>,
+    /// The hits of one level that may be lit, as the lights see them.
+    frames: LightFrames,
     /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
     /// the node sending it, the ray.
     sent: Vec<((u32, u32), u32, Ray)>,
@@ -345,7 +342,7 @@ impl<'s> Renderer<'s> {
                 let mut few = b.take().unwrap_or_default();
                 *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
             }
-            self.look_at_lights(world, integrator, buf, level.clone());
+            self.look_at_lights(integrator, buf, level.clone());
             if depth >= self.max_depth {
                 break;
             }
@@ -360,39 +357,23 @@ impl<'s> Renderer<'s> {
     /// to it tested together against the objects that may shadow them (`buf.blockers`).
     fn look_at_lights(
         &self,
-        world: &World,
         integrator: &Integrator,
         buf: &mut TileBuffers,
         level: std::ops::Range<usize>,
     ) {
-        let TileBuffers { found, surfaces, blockers, lit, shadows, shadow_rays, visible, .. } = buf;
+        let TileBuffers { found, surfaces, blockers, lit, frames, .. } = buf;
         let lights = self.scene.lights.len();
         lit.resize(found.len() * lights, Lit::default());
+        frames.clear();
+        for k in level {
+            if let (ray, Some((_, index))) = &found[k]
+                && integrator.may_light(*index)
+            {
+                frames.push(k as u32, integrator.light_frame(ray, &surfaces[k].get(), *index));
+            }
+        }
         for i in 0..lights {
-            shadows.clear();
-            shadow_rays.clear();
-            for k in level.clone() {
-                if let (ray, Some((_, index))) = &found[k]
-                    && integrator.may_light(*index)
-                {
-                    let (seen, shadow, distance) = integrator.light_path(ray, &surfaces[k].get(), *index, i);
-                    lit[k * lights + i] = seen;
-                    if seen.n_dot_l > 0.0 {
-                        shadows.push(k as u32);
-                        shadow_rays.push((shadow, distance));
-                    }
-                }
-            }
-            match blockers.get(i) {
-                Some(Some(few)) => world.transmittance_among_each(few, shadow_rays, visible),
-                _ => {
-                    visible.clear();
-                    visible.extend(shadow_rays.iter().map(|(r, t)| world.transmittance(r, *t)));
-                }
-            }
-            for (&k, &v) in shadows.iter().zip(visible.iter()) {
-                lit[k as usize * lights + i].visible = v;
-            }
+            integrator.look_at_light(frames, i, blockers.get(i).and_then(|b| b.as_deref()), lit);
         }
     }
 

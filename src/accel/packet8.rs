@@ -64,6 +64,12 @@ impl Rays8 {
         let row = |k: usize| load(&rows[k]);
         Rays8 { o: [row(0), row(1), row(2)], d: [row(3), row(4), row(5)] }
     }
+
+    /// Eight rays given lane by lane: origins and directions, a row per axis.
+    #[target_feature(enable = "avx2")]
+    pub fn from_lanes(origins: &[[f32; 8]; 3], dirs: &[[f32; 8]; 3]) -> Self {
+        Rays8 { o: origins.each_ref().map(|r| load(r)), d: dirs.each_ref().map(|r| load(r)) }
+    }
 }
 
 #[target_feature(enable = "avx2")]

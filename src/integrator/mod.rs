@@ -85,15 +85,41 @@ impl<'w, 's> Integrator<'w, 's> {
         !(m.local_share() == 0.0 && !(m.specular > 0.0)) && (m.specular > 0.0 || m.diffuse != 0.0)
     }
 
-    /// Light `i` as shading sees it from a hit of `ray` on object `index` at `surface`:
-    /// the direction, the cosine with the normal, and the shadow ray with its length
-    /// (sent only where the cosine is positive).
+    /// Where a hit of `ray` on object `index` at `surface` sends its shadow rays from,
+    /// and the normal the lights are judged by there: the same for every light.
     #[inline]
-    pub fn light_path(&self, ray: &Ray, surface: &Surface, index: u32, i: usize) -> (Lit, Ray, f32) {
+    pub fn light_frame(&self, ray: &Ray, surface: &Surface, index: u32) -> (Vec3, Vec3) {
         let (side, lit_from) = leaving(ray, surface);
-        let n = self.light_normal(surface, side, index);
-        let (l, distance, n_dot_l) = towards(self.world.scene().lights[i].position, lit_from, n);
-        (Lit { l, n_dot_l, visible: 0.0 }, Ray { origin: lit_from, dir: l }, distance)
+        (lit_from, self.light_normal(surface, side, index))
+    }
+
+    /// Light `i` as the hits of `frames` see it, into `lit` (node `k`'s at
+    /// `k * lights + i`): the direction and cosine of eight hits at a time
+    /// ([`towards_lanes`]), then what their shadow rays let through, tested together
+    /// against objects `blockers` only where given ([`World::may_shadow`]), else against
+    /// the whole world. Shadow rays go only where the cosine is positive.
+    pub fn look_at_light(&self, frames: &LightFrames, i: usize, blockers: Option<&[u32]>, lit: &mut [Lit]) {
+        let lights = self.world.scene().lights.len();
+        let position = self.world.scene().lights[i].position;
+        for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
+            let seen = towards_lanes(position, from, normal);
+            let mut live = 0u32;
+            for lane in 0..nodes.len() {
+                live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
+            }
+            let visible = match blockers {
+                Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
+                None => std::array::from_fn(|lane| {
+                    let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
+                    if live >> lane & 1 == 0 { 0.0 } else { self.world.transmittance(&shadow, seen.distance[lane]) }
+                }),
+            };
+            for (lane, &k) in nodes.iter().enumerate() {
+                let visible = if live >> lane & 1 == 0 { 0.0 } else { visible[lane] };
+                lit[k as usize * lights + i] =
+                    Lit { l: lane_of(&seen.l, lane), n_dot_l: seen.n_dot_l[lane], visible };
+            }
+        }
     }
 
     /// Whether a hit on object `index` by the `depth`-th ray of a chain sends rays on.
@@ -293,6 +319,71 @@ pub struct Lit {
     pub l: Vec3,
     pub n_dot_l: f32,
     pub visible: f32,
+}
+
+/// The hits of one level of a [`Traced`] tile that may be lit, eight to a block, lane
+/// by lane (the layout [`towards_lanes`] reads): each one's node, where its shadow rays
+/// leave from and the normal lights are judged by ([`Integrator::light_frame`]).
+#[derive(Clone, Debug, Default)]
+pub struct LightFrames {
+    nodes: Vec<u32>,
+    from: Vec<[[f32; 8]; 3]>,
+    normal: Vec<[[f32; 8]; 3]>,
+}
+
+impl LightFrames {
+    pub fn clear(&mut self) {
+        self.nodes.clear();
+        self.from.clear();
+        self.normal.clear();
+    }
+
+    pub fn push(&mut self, node: u32, (from, normal): (Vec3, Vec3)) {
+        let lane = self.nodes.len() % 8;
+        if lane == 0 {
+            self.from.push([[0.0; 8]; 3]);
+            self.normal.push([[0.0; 8]; 3]);
+        }
+        let (f, n) = (self.from.last_mut().expect("pushed"), self.normal.last_mut().expect("pushed"));
+        for (axis, (a, b)) in from.to_array().into_iter().zip(normal.to_array()).enumerate() {
+            (f[axis][lane], n[axis][lane]) = (a, b);
+        }
+        self.nodes.push(node);
+    }
+}
+
+/// Lane `lane` of three rows of eight.
+#[inline(always)]
+fn lane_of(rows: &[[f32; 8]; 3], lane: usize) -> Vec3 {
+    Vec3::new(rows[0][lane], rows[1][lane], rows[2][lane])
+}
+
+/// [`towards`] for eight points and normals, lane by lane.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Towards8 {
+    pub l: [[f32; 8]; 3],
+    pub distance: [f32; 8],
+    pub n_dot_l: [f32; 8],
+}
+
+/// [`towards`] for eight points `from` and normals `n`, lane by lane: glam's operations
+/// in glam's order, so each lane is bit-identical to [`towards`], written on plain
+/// arrays so that the compiler computes the lanes together (one hit at a time, each
+/// square root and division waited for the one before).
+#[inline]
+pub fn towards_lanes(light: Vec3, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> Towards8 {
+    let mut out = Towards8::default();
+    for lane in 0..8 {
+        let to = [light.x - from[0][lane], light.y - from[1][lane], light.z - from[2][lane]];
+        let distance = ((to[0] * to[0]) + (to[1] * to[1]) + (to[2] * to[2])).sqrt();
+        let l = [to[0] / distance, to[1] / distance, to[2] / distance];
+        out.n_dot_l[lane] = (n[0][lane] * l[0]) + (n[1][lane] * l[1]) + (n[2][lane] * l[2]);
+        out.distance[lane] = distance;
+        for axis in 0..3 {
+            out.l[axis][lane] = l[axis];
+        }
+    }
+    out
 }
 
 /// Direction and distance to `light` from `from`, and the cosine with normal `n`.
