@@ -6,7 +6,8 @@
 //!   looking at c, up +y, vertical field of view 40°, where c and R are the centre and
 //!   half-diagonal of the bounding box;
 //! - shadow: from each primary hit, offset 1e-4·R along the normal facing the viewer, to
-//!   a point light (at c + (1.5, 2.5, 1.8)·R for meshes), stopping just short of it;
+//!   a point light (at c + (1.5, 2.5, 1.8)·R for meshes), stopping just short of it,
+//!   traced as the renderer traces a tile's shadow rays ([`World::transmittance_each`]);
 //! - incoherent: 2²⁰ rays with origins uniform in the box and directions uniform on the
 //!   sphere, from the same generator and seed as the Embree benchmark (mt19937-64, 12345).
 
@@ -413,8 +414,11 @@ pub fn run(case: &BenchCase, accel: AccelKind, runs: usize, threads: usize) -> B
         });
         let shadow = case.shadow_rays(&world, &primary);
         let shadow_s = timed_rays(runs, || {
-            let (lit, cpu) =
-                par_chunks_timed(&shadow, |c| c.iter().filter(|(r, d)| world.transmittance(r, *d) > 0.0).count());
+            let (lit, cpu) = par_chunks_timed(&shadow, |c| {
+                let mut light = vec![0.0; c.len()];
+                world.transmittance_each(c, &mut light);
+                light.iter().filter(|&&l| l > 0.0).count()
+            });
             std::hint::black_box(lit);
             cpu
         });

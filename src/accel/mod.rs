@@ -151,6 +151,35 @@ impl MeshBvh {
         hit
     }
 
+    /// [`MeshBvh::occluded`] (from 0) for `N` rays at once ([`WideBvh::any_hits`]).
+    #[inline]
+    fn occluded_each<const N: usize>(&self, rays: [&Ray; N], t_max: [f32; N]) -> [bool; N] {
+        let r4 = rays.map(Ray4::new);
+        self.tree.any_hits(rays, 0.0, t_max, &self.packs, |k, range| self.leaf_blocks(range, &r4[k], 0.0, t_max[k]))
+    }
+
+    /// The lanes of `live` (a bit each) whose ray `ray(lane)` a triangle blocks between
+    /// 0 and `t_max[lane]`: three walks at a time ([`MeshBvh::occluded_each`]).
+    fn occluded_lanes(&self, ray: impl Fn(usize) -> Ray, t_max: [f32; 8], live: u32) -> u32 {
+        let (mut lanes, mut n) = ([0usize; 8], 0);
+        for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+            (lanes[n], n) = (lane, n + 1);
+        }
+        let mut blocked = 0;
+        let mut groups = lanes[..n].chunks_exact(3);
+        for g in &mut groups {
+            let rays = [ray(g[0]), ray(g[1]), ray(g[2])];
+            let hit = self.occluded_each([&rays[0], &rays[1], &rays[2]], [t_max[g[0]], t_max[g[1]], t_max[g[2]]]);
+            for (&lane, hit) in g.iter().zip(hit) {
+                blocked |= (hit as u32) << lane;
+            }
+        }
+        for &lane in groups.remainder() {
+            blocked |= (self.occluded(&ray(lane), 0.0, t_max[lane]) as u32) << lane;
+        }
+        blocked
+    }
+
     /// Whether a triangle of leaf `range` lies across the ray within `(t_min, t_max)`.
     #[inline(always)]
     fn leaf_blocks(&self, range: std::ops::Range<usize>, r4: &Ray4, t_min: f32, t_max: f32) -> bool {
@@ -657,7 +686,9 @@ impl<'s> World<'s> {
         for &i in ids {
             let mut best = packet8::Best8::within(t_max);
             let mut blocked = 0u32;
-            if !self.eight_lanes(i, wide, live, &mut best) {
+            if let Some(mesh) = &self.meshes[i as usize] {
+                blocked = mesh.occluded_lanes(&ray, t_max, live);
+            } else if !self.eight_lanes(i, wide, live, &mut best) {
                 for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
                     blocked |= (self.blocks(i as usize, &ray(lane), t_max[lane]) as u32) << lane;
                 }
@@ -727,6 +758,28 @@ impl<'s> World<'s> {
             }
         }
         (index != NONE).then_some((best, index))
+    }
+
+    /// [`World::transmittance`] for each shadow ray and length of `rays`, into `out` (as
+    /// long): in a world of one mesh, three rays' walks at a time, interleaved
+    /// ([`super::wide8::Bvh8::any_hits`]), else one ray after another.
+    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
+        let [Some(mesh)] = &self.meshes[..] else {
+            for ((ray, t), light) in rays.iter().zip(out) {
+                *light = self.transmittance(ray, *t);
+            }
+            return;
+        };
+        // As `transmittance` finds it: the mesh's transmission if it lies across the ray.
+        let light = |blocked: bool| if blocked { (1.0f64 * self.transmission[0] as f64) as f32 } else { 1.0 };
+        let (mut groups, mut lights) = (rays.chunks_exact(3), out.chunks_exact_mut(3));
+        for (g, out) in (&mut groups).zip(&mut lights) {
+            let blocked = mesh.occluded_each([&g[0].0, &g[1].0, &g[2].0], [g[0].1, g[1].1, g[2].1]);
+            out.copy_from_slice(&blocked.map(light));
+        }
+        for ((ray, t), out) in groups.remainder().iter().zip(lights.into_remainder()) {
+            *out = light(mesh.occluded(ray, 0.0, *t));
+        }
     }
 
     /// The share of light that travels from `ray.origin` a distance `t_max` along the
@@ -1101,6 +1154,27 @@ mod tests {
             let b = mesh.intersect(&ray, 0.0, f32::INFINITY);
             assert_eq!(a, b, "ray {i}: {ray:?}");
             assert_eq!(tree.occluded(&ray, 0.0, 1.0), mesh.occluded(&ray, 0.0, 1.0), "ray {i}");
+        }
+    }
+
+    /// Shadow rays through a world of one mesh, batched, as one by one: from points on
+    /// and around the mesh, blocked and not, opaque and glass, both tree widths.
+    #[test]
+    fn shadow_rays_in_batches_match_one_by_one() {
+        let mut r = Rng::new(9);
+        for (transparency, width) in [(0.0, 8), (0.6, 8), (0.0, 4)] {
+            let mut scene = Scene::new(Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 40.0, 8, 8));
+            let m = scene.add_material(Material::color(Color::ONE).transparent(transparency, 1.0));
+            scene.add(crate::scene::generate::cube_sphere(12), m);
+            let world = World::with_width(&scene, AccelKind::Bvh, Some(width));
+            // Lengths up to 6 (rays from outside the unit sphere may end before it).
+            let rays: Vec<(Ray, f32)> = (0..3001).map(|_| (Ray::new(v(&mut r, 1.5), unit(&mut r)), 6.0 * r.next_f32())).collect();
+            let want: Vec<f32> = rays.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
+            let mut got = vec![0.0; rays.len()];
+            world.transmittance_each(&rays, &mut got);
+            assert_eq!(got, want, "transparency {transparency}, width {width}");
+            let blocked = want.iter().filter(|&&l| l < 1.0).count();
+            assert!(blocked > 300 && blocked < 2700, "{blocked} of {} blocked", want.len());
         }
     }
 

@@ -484,6 +484,32 @@ impl WideBvh {
             WideBvh::Eight(t) => t.start::<ORDERED, T>(ray, t_min, t_max, items, leaf),
         }
     }
+
+    /// Any-hit walks for `N` rays: interleaved on the 8-wide tree
+    /// ([`super::wide8::Bvh8::any_hits`]), one after another on the 4-wide one.
+    /// `leaf(k, range)` says whether ray `k` is blocked at `range`; returns which were.
+    #[inline]
+    pub fn any_hits<T, const N: usize>(
+        &self,
+        rays: [&Ray; N],
+        t_min: f32,
+        t_max: [f32; N],
+        items: &[T],
+        mut leaf: impl FnMut(usize, std::ops::Range<usize>) -> bool,
+    ) -> [bool; N] {
+        match self {
+            WideBvh::Four(t) => std::array::from_fn(|k| {
+                let mut blocked = false;
+                t.start::<false, T>(rays[k], t_min, t_max[k], items, |range, t| {
+                    blocked = leaf(k, range);
+                    if blocked { Visit::Stop } else { Visit::Continue(t) }
+                });
+                blocked
+            }),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.any_hits(rays, t_min, t_max, items, leaf),
+        }
+    }
 }
 
 #[cfg(test)]

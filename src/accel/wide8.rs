@@ -94,10 +94,7 @@ impl Bvh8 {
                 // Starts loading child `lane` (a node's box lines, or a leaf's first items).
                 macro_rules! load_child {
                     ($lane:expr) => {
-                        match unpack(n.packed[$lane]) {
-                            (child, 0) => prefetch(&self.nodes[child as usize]),
-                            (first, _) => super::wide::prefetch_items(items, first as usize),
-                        }
+                        prefetch_child(&self.nodes, items, n.packed[$lane])
                     };
                 }
                 // Stacks child `lane`, entered at distance `d` (a nested walk takes it
@@ -169,6 +166,131 @@ impl Bvh8 {
                 }
             }
         }
+    }
+}
+
+/// Entries of each stack of an interleaved walk ([`Bvh8::any_hits`]); a walk that
+/// would overflow it goes on in a nested [`Bvh8::start`]-style walk. Small in tests, so
+/// that they cover that path.
+const DEEP: usize = if cfg!(test) { 3 } else { 64 };
+
+impl Bvh8 {
+    /// `N` any-hit walks (shadow rays) at once, interleaved node by node. One walk is a
+    /// chain of dependent steps (load a node, test its boxes, pick a child) that keeps
+    /// the processor waiting; stepping `N` independent walks in turn fills those waits.
+    /// `leaf(k, range)` says whether ray `k` is blocked by the primitives at `range`
+    /// (which then ends its walk). Returns which rays were blocked: the same answers,
+    /// from the same leaves, as one unordered walk per ray.
+    #[inline]
+    #[allow(unsafe_code)]
+    pub fn any_hits<T, const N: usize>(
+        &self,
+        rays: [&Ray; N],
+        t_min: f32,
+        t_max: [f32; N],
+        items: &[T],
+        mut leaf: impl FnMut(usize, std::ops::Range<usize>) -> bool,
+    ) -> [bool; N] {
+        // SAFETY: as in `start`: a `Bvh8` exists only where the processor has AVX2.
+        unsafe { self.walk_any(rays, t_min, t_max, items, &mut leaf) }
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn walk_any<T, const N: usize>(
+        &self,
+        rays: [&Ray; N],
+        t_min: f32,
+        mut t_max: [f32; N],
+        items: &[T],
+        leaf: &mut impl FnMut(usize, std::ops::Range<usize>) -> bool,
+    ) -> [bool; N] {
+        let r = rays.map(|ray| WideRay8::new(ray));
+        let mut stack = [[0u32; DEEP]; N];
+        let mut sp = [0usize; N];
+        // Each walk starts at the root, node 0.
+        let mut current = [0u32; N];
+        let mut live = (1u32 << N) - 1;
+        let mut blocked = [false; N];
+        // One step of walk `k`: a leaf tested, or a node's children entered (the last
+        // next, the others stacked); then, if the walk goes on, its next entry.
+        macro_rules! step {
+            ($k:expr) => {{
+                let k = $k;
+                let (index, count) = unpack(current[k]);
+                let mut next = None;
+                if count > 0 {
+                    let first = index as usize;
+                    if leaf(k, first..first + count as usize) {
+                        blocked[k] = true;
+                        live &= !(1 << k);
+                    }
+                } else {
+                    let n = &self.nodes[index as usize];
+                    let (_, mut hit) = enter!(&r[k], n, t_min, t_max[k]);
+                    if hit != 0 {
+                        let last = 31 - hit.leading_zeros() as usize;
+                        hit &= !(1 << last);
+                        while hit != 0 {
+                            let lane = hit.trailing_zeros() as usize;
+                            hit &= hit - 1;
+                            let entry = n.packed[lane];
+                            prefetch_child(&self.nodes, items, entry);
+                            if sp[k] < DEEP {
+                                stack[k][sp[k]] = entry;
+                                sp[k] += 1;
+                            } else {
+                                #[cfg(test)]
+                                tests::OVERFLOWS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                                let mut stop = |range, t| if leaf(k, range) { Visit::Stop } else { Visit::Continue(t) };
+                                if !self.walk::<false, T>(rays[k], (entry, 0.0), t_min, &mut t_max[k], items, &mut stop) {
+                                    blocked[k] = true;
+                                    live &= !(1 << k);
+                                    break;
+                                }
+                            }
+                        }
+                        prefetch_child(&self.nodes, items, n.packed[last]);
+                        next = Some(n.packed[last]);
+                    }
+                }
+                if live >> k & 1 != 0 {
+                    match next {
+                        Some(entry) => current[k] = entry,
+                        None if sp[k] == 0 => live &= !(1 << k),
+                        None => {
+                            sp[k] -= 1;
+                            current[k] = stack[k][sp[k]];
+                        }
+                    }
+                }
+            }};
+        }
+        // Constant indices: a loop over `k` kept the walks' state in memory, and was
+        // slower by a tenth.
+        while live != 0 {
+            if live & 1 != 0 {
+                step!(0);
+            }
+            if N > 1 && live & 2 != 0 {
+                step!(1.min(N - 1));
+            }
+            if N > 2 && live & 4 != 0 {
+                step!(2.min(N - 1));
+            }
+            if N > 3 && live & 8 != 0 {
+                step!(3.min(N - 1));
+            }
+        }
+        blocked
+    }
+}
+
+/// Starts loading a child: an inner node's box lines or a leaf's first items.
+#[inline(always)]
+fn prefetch_child<T>(nodes: &[Node8], items: &[T], packed: u32) {
+    match unpack(packed) {
+        (child, 0) => prefetch(&nodes[child as usize]),
+        (first, _) => super::wide::prefetch_items(items, first as usize),
     }
 }
 
@@ -292,6 +414,60 @@ mod tests {
     use crate::math::Vec3;
 
     type LeafFn<'a> = dyn FnMut(std::ops::Range<usize>, f32) -> Visit + 'a;
+
+    /// Interleaved walks that overflowed their stack (into a nested walk).
+    pub(super) static OVERFLOWS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+    /// Three interleaved any-hit walks block the same rays, and reach the same leaves
+    /// where not blocked, as one walk per ray; with the tests' small stacks, walks also
+    /// overflow into nested ones.
+    #[test]
+    fn interleaved_walks_match_walks_one_by_one() {
+        let (mut blocked_rays, mut passed_leaves) = (0, 0);
+        for n in [1, 2, 9, 100, 5000] {
+            let b = crate::accel::bvh::tests::boxes(n, 0x9e3779b97f4a7c15);
+            let bvh = Bvh::build(&b);
+            let Some(eight) = Bvh8::from_binary(&bvh) else {
+                eprintln!("no AVX2 here: the 8-wide tree is not tested");
+                return;
+            };
+            // A ray is blocked by primitives whose id is a multiple of `every` (per ray).
+            let blocks = |every: u32, range: std::ops::Range<usize>| range.clone().any(|i| bvh.indices[i].is_multiple_of(every));
+            let mut s = 7u64;
+            for _ in 0..1500 {
+                let rays: [Ray; 3] = std::array::from_fn(|_| {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    let f = |k: u32| ((s >> k) & 0xffff) as f32 / 65535.0;
+                    Ray::new(Vec3::new(f(0), f(16), f(32)) * 60.0 - 5.0, Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5))
+                });
+                let every = [2 + (s % 5) as u32, 7919, 1 + (s >> 20) as u32 % 9];
+                let t_max = [f32::INFINITY, 40.0, 80.0];
+                let mut seen: [Vec<u32>; 3] = Default::default();
+                let got = eight.any_hits([&rays[0], &rays[1], &rays[2]], 0.0, t_max, &[0u8; 0], |k, range| {
+                    seen[k].extend(range.clone().map(|i| bvh.indices[i]));
+                    blocks(every[k], range)
+                });
+                for k in 0..3 {
+                    let (mut one, mut blocked) = (Vec::new(), false);
+                    eight.start::<false, u8>(&rays[k], 0.0, t_max[k], &[], |range, t| {
+                        one.extend(range.clone().map(|i| bvh.indices[i]));
+                        blocked = blocks(every[k], range);
+                        if blocked { Visit::Stop } else { Visit::Continue(t) }
+                    });
+                    assert_eq!(got[k], blocked, "n = {n}, ray {k}");
+                    if !blocked {
+                        seen[k].sort_unstable();
+                        one.sort_unstable();
+                        assert_eq!(seen[k], one, "n = {n}, ray {k}");
+                    }
+                    blocked_rays += blocked as u32;
+                    passed_leaves += (!blocked && !one.is_empty()) as u32;
+                }
+            }
+        }
+        let overflowed = OVERFLOWS.load(std::sync::atomic::Ordering::Relaxed);
+        assert!(overflowed > 500 && blocked_rays > 200 && passed_leaves > 600, "{overflowed} {blocked_rays} {passed_leaves}");
+    }
 
     /// Both widths reach the same primitives, in the same nearest-first order of leaves
     /// when ordered, and the same set when not.

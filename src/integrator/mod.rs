@@ -109,10 +109,21 @@ impl<'w, 's> Integrator<'w, 's> {
             }
             let visible = match blockers {
                 Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
-                None => std::array::from_fn(|lane| {
-                    let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
-                    if live >> lane & 1 == 0 { 0.0 } else { self.world.transmittance(&shadow, seen.distance[lane]) }
-                }),
+                None => {
+                    // The live lanes' rays, side by side, then their answers back in lane.
+                    let (mut rays, mut n) = ([(Ray::new(Vec3::ZERO, Vec3::Z), 0.0); 8], 0);
+                    for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                        let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
+                        (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
+                    }
+                    let mut light = [0.0; 8];
+                    self.world.transmittance_each(&rays[..n], &mut light[..n]);
+                    let mut visible = [0.0; 8];
+                    for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
+                        visible[lane] = light;
+                    }
+                    visible
+                }
             };
             for (lane, &k) in nodes.iter().enumerate() {
                 let visible = if live >> lane & 1 == 0 { 0.0 } else { visible[lane] };
@@ -379,8 +390,8 @@ pub fn towards_lanes(light: Vec3, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> To
         let l = [to[0] / distance, to[1] / distance, to[2] / distance];
         out.n_dot_l[lane] = (n[0][lane] * l[0]) + (n[1][lane] * l[1]) + (n[2][lane] * l[2]);
         out.distance[lane] = distance;
-        for axis in 0..3 {
-            out.l[axis][lane] = l[axis];
+        for (row, l) in out.l.iter_mut().zip(l) {
+            row[lane] = l;
         }
     }
     out
@@ -441,6 +452,24 @@ pub fn transmitted_ray(ray: &Ray, surface: &Surface, ior: f32) -> (Ray, Transmis
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn light_directions_eight_at_a_time_are_those_one_at_a_time() {
+        let mut r = crate::sampler::Rng::new(3);
+        let mut v = |scale: f32| Vec3::new(r.next_f32() - 0.5, r.next_f32() - 0.5, r.next_f32() - 0.5) * scale;
+        for _ in 0..2000 {
+            let light = v(40.0);
+            let (points, normals): (Vec<Vec3>, Vec<Vec3>) = (0..8).map(|_| (v(30.0), v(2.0).normalize())).unzip();
+            let rows = |p: &[Vec3]| std::array::from_fn(|axis| std::array::from_fn(|lane| p[lane][axis]));
+            let got = towards_lanes(light, &rows(&points), &rows(&normals));
+            for lane in 0..8 {
+                let (l, distance, n_dot_l) = towards(light, points[lane], normals[lane]);
+                let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+                assert_eq!(bits(lane_of(&got.l, lane)), bits(l));
+                assert_eq!((got.distance[lane].to_bits(), got.n_dot_l[lane].to_bits()), (distance.to_bits(), n_dot_l.to_bits()));
+            }
+        }
+    }
     use crate::accel::{AccelKind, World};
     use crate::camera::Camera;
     use crate::geometry::{Quad, Shape, Sphere};
