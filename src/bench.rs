@@ -6,10 +6,13 @@
 //!   looking at c, up +y, vertical field of view 40°, where c and R are the centre and
 //!   half-diagonal of the bounding box;
 //! - shadow: from each primary hit, offset 1e-4·R along the normal facing the viewer, to
-//!   a point light (at c + (1.5, 2.5, 1.8)·R for meshes), stopping just short of it,
-//!   traced as the renderer traces a tile's shadow rays ([`World::transmittance_each`]);
+//!   a point light (at c + (1.5, 2.5, 1.8)·R for meshes), stopping just short of it;
 //! - incoherent: 2²⁰ rays with origins uniform in the box and directions uniform on the
 //!   sphere, from the same generator and seed as the Embree benchmark (mt19937-64, 12345).
+//!
+//! Rays are traced in batches, as the renderer traces a tile's rays against a mesh:
+//! through a mesh several tree walks at a time, interleaved ([`World::closest_each`],
+//! [`World::transmittance_each`]); elsewhere one by one.
 
 use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraRig};
@@ -404,7 +407,11 @@ pub fn run(case: &BenchCase, accel: AccelKind, runs: usize, threads: usize) -> B
 
         let primary = case.primary_rays();
         let hits = |rays: &[Ray]| {
-            par_chunks_timed(rays, |c| c.iter().filter(|r| world.closest(r, 0.0, f32::INFINITY).is_some()).count())
+            par_chunks_timed(rays, |c| {
+                let mut found = vec![None; c.len()];
+                world.closest_each(c, 0.0, f32::INFINITY, &mut found);
+                found.iter().filter(|h| h.is_some()).count()
+            })
         };
         let mut primary_hits = 0;
         let primary_s = timed_rays(runs, || {

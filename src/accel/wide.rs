@@ -485,6 +485,29 @@ impl WideBvh {
         }
     }
 
+    /// Nearest-first walks for `N` rays: interleaved on the 8-wide tree
+    /// ([`super::wide8::Bvh8::nearest_hits`]), one after another on the 4-wide one.
+    /// `leaf(k, range, t_max)` handles ray `k`'s leaf and returns its new bound.
+    #[inline]
+    pub fn nearest_hits<T, const N: usize>(
+        &self,
+        rays: [&Ray; N],
+        t_min: f32,
+        t_max: [f32; N],
+        items: &[T],
+        mut leaf: impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
+    ) {
+        match self {
+            WideBvh::Four(t) => {
+                for k in 0..N {
+                    t.start::<true, T>(rays[k], t_min, t_max[k], items, |range, t| Visit::Continue(leaf(k, range, t)));
+                }
+            }
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.nearest_hits(rays, t_min, t_max, items, leaf),
+        }
+    }
+
     /// Any-hit walks for `N` rays: interleaved on the 8-wide tree
     /// ([`super::wide8::Bvh8::any_hits`]), one after another on the 4-wide one.
     /// `leaf(k, range)` says whether ray `k` is blocked at `range`; returns which were.

@@ -285,6 +285,118 @@ impl Bvh8 {
     }
 }
 
+impl Bvh8 {
+    /// `N` nearest-first walks (closest hits) at once, interleaved node by node, as
+    /// [`Bvh8::any_hits`] does for any-hit walks: each walk visits the leaves that
+    /// [`Bvh8::start`] (ordered) visits, in the same order, and `leaf(k, range, t_max)`
+    /// handles ray `k`'s and returns its new bound.
+    #[inline]
+    #[allow(unsafe_code)]
+    pub fn nearest_hits<T, const N: usize>(
+        &self,
+        rays: [&Ray; N],
+        t_min: f32,
+        t_max: [f32; N],
+        items: &[T],
+        mut leaf: impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
+    ) {
+        // SAFETY: as in `start`: a `Bvh8` exists only where the processor has AVX2.
+        unsafe { self.walk_nearest(rays, t_min, t_max, items, &mut leaf) }
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn walk_nearest<T, const N: usize>(
+        &self,
+        rays: [&Ray; N],
+        t_min: f32,
+        mut t_max: [f32; N],
+        items: &[T],
+        leaf: &mut impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
+    ) {
+        let r = rays.map(|ray| WideRay8::new(ray));
+        let mut stack = [[(0u32, 0f32); DEEP]; N];
+        let mut sp = [0usize; N];
+        let mut current = [(0u32, t_min); N];
+        let mut live = (1u32 << N) - 1;
+        // One step of walk `k`: a leaf handled, or a node's children entered (the
+        // nearest next, the others stacked farthest first); then, if the walk goes on,
+        // its next entry still in front of the nearest hit.
+        macro_rules! step {
+            ($k:expr) => {{
+                let k = $k;
+                let (index, count) = unpack(current[k].0);
+                let mut next = None;
+                if count > 0 {
+                    let first = index as usize;
+                    t_max[k] = leaf(k, first..first + count as usize, t_max[k]);
+                } else {
+                    let n = &self.nodes[index as usize];
+                    let (near, mut hit) = enter!(&r[k], n, t_min, t_max[k]);
+                    if hit != 0 {
+                        let mut order = [(0f32, 0u32); 8];
+                        let mut m = 0;
+                        while hit != 0 {
+                            let lane = hit.trailing_zeros() as usize;
+                            hit &= hit - 1;
+                            prefetch_child(&self.nodes, items, n.packed[lane]);
+                            let d = near[lane];
+                            let mut j = m;
+                            while j > 0 && order[j - 1].0 < d {
+                                order[j] = order[j - 1];
+                                j -= 1;
+                            }
+                            order[j] = (d, lane as u32);
+                            m += 1;
+                        }
+                        for &(d, lane) in &order[..m - 1] {
+                            let entry = (n.packed[lane as usize], d);
+                            if sp[k] < DEEP {
+                                stack[k][sp[k]] = entry;
+                                sp[k] += 1;
+                            } else {
+                                #[cfg(test)]
+                                tests::OVERFLOWS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                                let mut go_on = |range, t| Visit::Continue(leaf(k, range, t));
+                                self.walk::<true, T>(rays[k], entry, t_min, &mut t_max[k], items, &mut go_on);
+                            }
+                        }
+                        let (d, lane) = order[m - 1];
+                        next = Some((n.packed[lane as usize], d));
+                    }
+                }
+                match next {
+                    Some(entry) => current[k] = entry,
+                    None => loop {
+                        if sp[k] == 0 {
+                            live &= !(1 << k);
+                            break;
+                        }
+                        sp[k] -= 1;
+                        if stack[k][sp[k]].1 <= t_max[k] * ROBUST {
+                            current[k] = stack[k][sp[k]];
+                            break;
+                        }
+                    },
+                }
+            }};
+        }
+        while live != 0 {
+            if live & 1 != 0 {
+                step!(0);
+            }
+            if N > 1 && live & 2 != 0 {
+                step!(1.min(N - 1));
+            }
+            if N > 2 && live & 4 != 0 {
+                step!(2.min(N - 1));
+            }
+            if N > 3 && live & 8 != 0 {
+                step!(3.min(N - 1));
+            }
+        }
+    }
+}
+
 /// Starts loading a child: an inner node's box lines or a leaf's first items.
 #[inline(always)]
 fn prefetch_child<T>(nodes: &[Node8], items: &[T], packed: u32) {
@@ -417,6 +529,63 @@ mod tests {
 
     /// Interleaved walks that overflowed their stack (into a nested walk).
     pub(super) static OVERFLOWS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+    /// Three interleaved nearest-first walks find the same nearest primitive as one
+    /// walk per ray (a primitive's distance made up from its id), with stacks that
+    /// overflow into nested walks.
+    #[test]
+    fn interleaved_nearest_walks_match_walks_one_by_one() {
+        let (mut found, mut rays_run) = (0, 0);
+        let before = OVERFLOWS.load(std::sync::atomic::Ordering::Relaxed);
+        for n in [1, 2, 9, 100, 5000] {
+            let b = crate::accel::bvh::tests::boxes(n, 0x2545f4914f6cdd1d);
+            let bvh = Bvh::build(&b);
+            let Some(eight) = Bvh8::from_binary(&bvh) else {
+                eprintln!("no AVX2 here: the 8-wide tree is not tested");
+                return;
+            };
+            // A primitive is hit where the ray enters its box; the nearest wins, ties
+            // to the lower id.
+            let nearest = |ray: &Ray, range: std::ops::Range<usize>, t: f32, best: &mut Option<(f32, u32)>| {
+                let mut t = t;
+                for id in range.map(|i| bvh.indices[i]) {
+                    let (near, far) = (0..3).fold((0.0f32, f32::INFINITY), |(near, far), axis| {
+                        let inv = 1.0 / ray.dir[axis];
+                        let (a, c) = ((b[id as usize].min[axis] - ray.origin[axis]) * inv, (b[id as usize].max[axis] - ray.origin[axis]) * inv);
+                        (near.max(a.min(c)), far.min(a.max(c)))
+                    });
+                    if near <= far && (near < t || best.is_some_and(|(bt, bid)| near == bt && id < bid)) {
+                        (t, *best) = (near, Some((near, id)));
+                    }
+                }
+                t
+            };
+            let mut s = 5u64;
+            for _ in 0..1500 {
+                let rays: [Ray; 3] = std::array::from_fn(|_| {
+                    s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                    let f = |k: u32| ((s >> k) & 0xffff) as f32 / 65535.0;
+                    Ray::new(Vec3::new(f(0), f(16), f(32)) * 60.0 - 5.0, Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5))
+                });
+                let t_max = [f32::INFINITY, 40.0, 80.0];
+                let mut got = [None; 3];
+                eight.nearest_hits([&rays[0], &rays[1], &rays[2]], 0.0, t_max, &[0u8; 0], |k, range, t| {
+                    nearest(&rays[k], range, t, &mut got[k])
+                });
+                for k in 0..3 {
+                    let mut want = None;
+                    eight.start::<true, u8>(&rays[k], 0.0, t_max[k], &[], |range, t| {
+                        Visit::Continue(nearest(&rays[k], range, t, &mut want))
+                    });
+                    assert_eq!(got[k], want, "n = {n}, ray {k}");
+                    found += want.is_some() as u32;
+                    rays_run += 1;
+                }
+            }
+        }
+        let overflowed = OVERFLOWS.load(std::sync::atomic::Ordering::Relaxed) - before;
+        assert!(overflowed > 100 && found > 300 && found + 300 < rays_run, "{overflowed} {found} {rays_run}");
+    }
 
     /// Three interleaved any-hit walks block the same rays, and reach the same leaves
     /// where not blocked, as one walk per ray; with the tests' small stacks, walks also
