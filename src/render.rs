@@ -355,12 +355,7 @@ impl<'s> Renderer<'s> {
 
     /// Each light as the hits of nodes `level` see it, into `buf.lit`, the shadow rays
     /// to it tested together against the objects that may shadow them (`buf.blockers`).
-    fn look_at_lights(
-        &self,
-        integrator: &Integrator,
-        buf: &mut TileBuffers,
-        level: std::ops::Range<usize>,
-    ) {
+    fn look_at_lights(&self, integrator: &Integrator, buf: &mut TileBuffers, level: std::ops::Range<usize>) {
         let TileBuffers { found, surfaces, blockers, lit, frames, .. } = buf;
         let lights = self.scene.lights.len();
         lit.resize(found.len() * lights, Lit::default());

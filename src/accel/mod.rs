@@ -123,7 +123,14 @@ impl MeshBvh {
     /// The triangles of leaf `range` against the ray, keeping the nearest in `best`;
     /// returns the new bound.
     #[inline(always)]
-    fn nearest_in(&self, range: std::ops::Range<usize>, r4: &Ray4, t_min: f32, mut t_cur: f32, best: &mut Option<Hit>) -> f32 {
+    fn nearest_in(
+        &self,
+        range: std::ops::Range<usize>,
+        r4: &Ray4,
+        t_min: f32,
+        mut t_cur: f32,
+        best: &mut Option<Hit>,
+    ) -> f32 {
         // Once something is hit the bound is inclusive, so an equally distant triangle
         // with a lower id wins, as when every triangle is tested in order.
         #[cfg(target_arch = "x86_64")]
@@ -705,9 +712,13 @@ impl<'s> World<'s> {
         if self.avx2 {
             // SAFETY: `avx2` is set only where the processor has AVX2.
             #[allow(unsafe_code)]
-            return unsafe { self.transmittance_among_8(ids, &packet8::Rays8::from_lanes(origins, dirs), ray, t_max, live) };
+            return unsafe {
+                self.transmittance_among_8(ids, &packet8::Rays8::from_lanes(origins, dirs), ray, t_max, live)
+            };
         }
-        std::array::from_fn(|lane| if live >> lane & 1 == 0 { 0.0 } else { self.transmittance_among(ids, &ray(lane), t_max[lane]) })
+        std::array::from_fn(|lane| {
+            if live >> lane & 1 == 0 { 0.0 } else { self.transmittance_among(ids, &ray(lane), t_max[lane]) }
+        })
     }
 
     /// The eight rays of [`World::transmittance_among_lanes`] (`ray` gives them one by
@@ -1136,7 +1147,11 @@ mod tests {
                         let got = world.transmittance_among_lanes(&few, &origins, &dirs, t_max, live);
                         for (lane, (_, want)) in group.iter().enumerate() {
                             let want = if live >> lane & 1 == 0 { 0.0 } else { *want };
-                            assert_eq!(got[lane].to_bits(), want.to_bits(), "seed {seed}, tile ({tx}, {ty}), light {light}");
+                            assert_eq!(
+                                got[lane].to_bits(),
+                                want.to_bits(),
+                                "seed {seed}, tile ({tx}, {ty}), light {light}"
+                            );
                         }
                     }
                     partial += (shadows.iter().any(|&(_, v)| v > 0.0 && v < 1.0)) as u32;
@@ -1237,7 +1252,8 @@ mod tests {
             scene.add(crate::scene::generate::cube_sphere(12), m);
             let world = World::with_width(&scene, AccelKind::Bvh, Some(width));
             // Lengths up to 6 (rays from outside the unit sphere may end before it).
-            let rays: Vec<(Ray, f32)> = (0..3001).map(|_| (Ray::new(v(&mut r, 1.5), unit(&mut r)), 6.0 * r.next_f32())).collect();
+            let rays: Vec<(Ray, f32)> =
+                (0..3001).map(|_| (Ray::new(v(&mut r, 1.5), unit(&mut r)), 6.0 * r.next_f32())).collect();
             let want: Vec<f32> = rays.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
             let mut got = vec![0.0; rays.len()];
             world.transmittance_each(&rays, &mut got);

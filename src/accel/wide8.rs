@@ -242,7 +242,8 @@ impl Bvh8 {
                                 #[cfg(test)]
                                 tests::OVERFLOWS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                                 let mut stop = |range, t| if leaf(k, range) { Visit::Stop } else { Visit::Continue(t) };
-                                if !self.walk::<false, T>(rays[k], (entry, 0.0), t_min, &mut t_max[k], items, &mut stop) {
+                                if !self.walk::<false, T>(rays[k], (entry, 0.0), t_min, &mut t_max[k], items, &mut stop)
+                                {
                                     blocked[k] = true;
                                     live &= !(1 << k);
                                     break;
@@ -551,7 +552,10 @@ mod tests {
                 for id in range.map(|i| bvh.indices[i]) {
                     let (near, far) = (0..3).fold((0.0f32, f32::INFINITY), |(near, far), axis| {
                         let inv = 1.0 / ray.dir[axis];
-                        let (a, c) = ((b[id as usize].min[axis] - ray.origin[axis]) * inv, (b[id as usize].max[axis] - ray.origin[axis]) * inv);
+                        let (a, c) = (
+                            (b[id as usize].min[axis] - ray.origin[axis]) * inv,
+                            (b[id as usize].max[axis] - ray.origin[axis]) * inv,
+                        );
                         (near.max(a.min(c)), far.min(a.max(c)))
                     });
                     if near <= far && (near < t || best.is_some_and(|(bt, bid)| near == bt && id < bid)) {
@@ -565,7 +569,10 @@ mod tests {
                 let rays: [Ray; 3] = std::array::from_fn(|_| {
                     s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                     let f = |k: u32| ((s >> k) & 0xffff) as f32 / 65535.0;
-                    Ray::new(Vec3::new(f(0), f(16), f(32)) * 60.0 - 5.0, Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5))
+                    Ray::new(
+                        Vec3::new(f(0), f(16), f(32)) * 60.0 - 5.0,
+                        Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5),
+                    )
                 });
                 let t_max = [f32::INFINITY, 40.0, 80.0];
                 let mut got = [None; 3];
@@ -601,13 +608,17 @@ mod tests {
                 return;
             };
             // A ray is blocked by primitives whose id is a multiple of `every` (per ray).
-            let blocks = |every: u32, range: std::ops::Range<usize>| range.clone().any(|i| bvh.indices[i].is_multiple_of(every));
+            let blocks =
+                |every: u32, range: std::ops::Range<usize>| range.clone().any(|i| bvh.indices[i].is_multiple_of(every));
             let mut s = 7u64;
             for _ in 0..1500 {
                 let rays: [Ray; 3] = std::array::from_fn(|_| {
                     s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
                     let f = |k: u32| ((s >> k) & 0xffff) as f32 / 65535.0;
-                    Ray::new(Vec3::new(f(0), f(16), f(32)) * 60.0 - 5.0, Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5))
+                    Ray::new(
+                        Vec3::new(f(0), f(16), f(32)) * 60.0 - 5.0,
+                        Vec3::new(f(8) - 0.5, f(24) - 0.5, f(40) - 0.5),
+                    )
                 });
                 let every = [2 + (s % 5) as u32, 7919, 1 + (s >> 20) as u32 % 9];
                 let t_max = [f32::INFINITY, 40.0, 80.0];
@@ -635,7 +646,10 @@ mod tests {
             }
         }
         let overflowed = OVERFLOWS.load(std::sync::atomic::Ordering::Relaxed);
-        assert!(overflowed > 500 && blocked_rays > 200 && passed_leaves > 600, "{overflowed} {blocked_rays} {passed_leaves}");
+        assert!(
+            overflowed > 500 && blocked_rays > 200 && passed_leaves > 600,
+            "{overflowed} {blocked_rays} {passed_leaves}"
+        );
     }
 
     /// Both widths reach the same primitives, in the same nearest-first order of leaves

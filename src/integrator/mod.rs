@@ -127,8 +127,7 @@ impl<'w, 's> Integrator<'w, 's> {
             };
             for (lane, &k) in nodes.iter().enumerate() {
                 let visible = if live >> lane & 1 == 0 { 0.0 } else { visible[lane] };
-                lit[k as usize * lights + i] =
-                    Lit { l: lane_of(&seen.l, lane), n_dot_l: seen.n_dot_l[lane], visible };
+                lit[k as usize * lights + i] = Lit { l: lane_of(&seen.l, lane), n_dot_l: seen.n_dot_l[lane], visible };
             }
         }
     }
@@ -466,7 +465,10 @@ mod tests {
                 let (l, distance, n_dot_l) = towards(light, points[lane], normals[lane]);
                 let bits = |v: Vec3| v.to_array().map(f32::to_bits);
                 assert_eq!(bits(lane_of(&got.l, lane)), bits(l));
-                assert_eq!((got.distance[lane].to_bits(), got.n_dot_l[lane].to_bits()), (distance.to_bits(), n_dot_l.to_bits()));
+                assert_eq!(
+                    (got.distance[lane].to_bits(), got.n_dot_l[lane].to_bits()),
+                    (distance.to_bits(), n_dot_l.to_bits())
+                );
             }
         }
     }
