@@ -111,7 +111,7 @@ impl<'w, 's> Integrator<'w, 's> {
                 Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
                 None => {
                     // The live lanes' rays, side by side, then their answers back in lane.
-                    let (mut rays, mut n) = ([(Ray::new(Vec3::ZERO, Vec3::Z), 0.0); 8], 0);
+                    let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
                     for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
                         let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
                         (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
@@ -125,9 +125,10 @@ impl<'w, 's> Integrator<'w, 's> {
                     visible
                 }
             };
+            // Both paths leave the lanes facing away at 0.
             for (lane, &k) in nodes.iter().enumerate() {
-                let visible = if live >> lane & 1 == 0 { 0.0 } else { visible[lane] };
-                lit[k as usize * lights + i] = Lit { l: lane_of(&seen.l, lane), n_dot_l: seen.n_dot_l[lane], visible };
+                let (l, n_dot_l, visible) = (lane_of(&seen.l, lane), seen.n_dot_l[lane], visible[lane]);
+                lit[k as usize * lights + i] = Lit { l, n_dot_l, visible };
             }
         }
     }
