@@ -59,7 +59,10 @@ impl Texture {
 
     /// Colour at world point `p` with surface coordinates `uv`. Total: any input, even
     /// NaN or infinite (a degenerate hit), gives some colour rather than a panic.
-    #[inline]
+    ///
+    /// Inlined into the shading: called, its point went through memory as 8 + 4 bytes
+    /// and was read back across the two stores, which stalls store forwarding.
+    #[inline(always)]
     pub fn color(&self, p: Vec3, uv: Vec2) -> Color {
         match self {
             Texture::Solid(c) => *c,
