@@ -6,7 +6,7 @@ use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::geometry::Hit;
-use crate::integrator::{Integrator, LightFrames, Lit, PackedSurface, RayStats, Traced};
+use crate::integrator::{Integrator, LightFrames, Lit, NONE, PackedSurface, RayStats, Traced};
 use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
@@ -22,6 +22,8 @@ const TILE: u32 = 16;
 #[derive(Default)]
 struct TileBuffers {
     pixels: Vec<Color>,
+    /// Per node, the colour seen along its ray.
+    colors: Vec<Color>,
     samples: Vec<Vec2>,
     /// The tile's rays and their hits: camera rays, then those sent on ([`Traced`]).
     found: Vec<(Ray, Option<(Hit, u32)>)>,
@@ -39,9 +41,6 @@ struct TileBuffers {
     /// the node sending it, the ray.
     sent: Vec<((u32, u32), u32, Ray)>,
 }
-
-/// No node.
-const NONE: u32 = u32::MAX;
 
 /// A configured render of one scene. Settings start from the scene's own and can be
 /// overridden one by one.
@@ -293,17 +292,16 @@ impl<'s> Renderer<'s> {
             world.closest_among_each(seen, found);
             self.trace_ahead(world, integrator, buf, stats);
         }
-        let TileBuffers { pixels, samples, found, next, surfaces, lit, .. } = buf;
-        let traced = Traced { nodes: found, surfaces, next, lit };
+        let TileBuffers { pixels, samples, found, next, surfaces, lit, colors, .. } = buf;
+        if culled {
+            integrator.shade_traced(&Traced { nodes: found, surfaces, next, lit }, colors, stats);
+            stats.primary += camera_rays as u64;
+        }
         let n = samples.len();
         for (p, pixel) in found[..camera_rays].chunks(n).enumerate() {
             let mut sum = Color::ZERO;
             for (s, (ray, _)) in pixel.iter().enumerate() {
-                sum += if culled {
-                    integrator.shade_traced(&traced, p * n + s, stats)
-                } else {
-                    integrator.trace_primary(ray, stats)
-                };
+                sum += if culled { colors[p * n + s] } else { integrator.trace_primary(ray, stats) };
             }
             pixels.push(sum / n as f32);
         }

@@ -8,11 +8,16 @@ pub use stats::RayStats;
 
 use crate::accel::World;
 use crate::geometry::{Hit, Surface};
+use crate::light::PointLight;
+use crate::material::Material;
 use crate::math::{Color, Ray, Vec2, Vec3, reflect, refract, surface_offset};
 use glam::Vec4;
 
 /// The index of refraction of the space between objects.
 pub const OUTSIDE_IOR: f32 = 1.0;
+
+/// No node: where [`Traced::next`] has no ray.
+pub const NONE: u32 = u32::MAX;
 
 /// Traces rays through a [`World`].
 #[derive(Clone, Copy, Debug)]
@@ -46,17 +51,46 @@ impl<'w, 's> Integrator<'w, 's> {
         self.trace(ray, 1, stats)
     }
 
-    /// [`Integrator::trace_primary`] for camera ray `k` of `traced`, whose hit and those
-    /// of the rays it sends on are already found: the same colour.
-    pub fn shade_traced(&self, traced: &Traced, k: usize, stats: &mut RayStats) -> Color {
-        stats.primary += 1;
-        self.shade_node(traced, k, 1, stats)
-    }
-
-    /// Node `k` of `traced`, the `depth`-th ray of its chain.
-    fn shade_node(&self, traced: &Traced, k: usize, depth: u32, stats: &mut RayStats) -> Color {
-        let (ray, found) = &traced.nodes[k];
-        self.shade(ray, found, depth, Some((traced, k)), stats)
+    /// The colours seen along every ray of `traced`, into `colors` (node `k`'s at `k`):
+    /// [`Integrator::trace`]'s colours, the same to the bit, for rays whose hits, surfaces,
+    /// lights and rays sent on were all found ahead. Each node's own share first, in one
+    /// flat pass whose nodes do not wait on each other, then, from the last level up, what
+    /// its reflected and transmitted rays bring, in the order `shade` adds them.
+    pub fn shade_traced(&self, traced: &Traced, colors: &mut Vec<Color>, stats: &mut RayStats) {
+        let scene = self.world.scene();
+        let lights = scene.lights.len();
+        colors.clear();
+        colors.extend(traced.nodes.iter().enumerate().map(|(k, (ray, found))| {
+            let Some((_, index)) = found else {
+                return self.background;
+            };
+            let material = scene.material(scene.objects[*index as usize].material);
+            let surface = traced.surfaces[k].get();
+            self.local(ray, &surface, *index, material, |i, _, _, _| {
+                let lit = &traced.lit[k * lights + i];
+                // Counted as `shade` counts: each light in front of the surface.
+                (lit.n_dot_l > 0.0).then(|| {
+                    stats.shadow += 1;
+                    (lit.l, lit.n_dot_l, lit.visible)
+                })
+            })
+        }));
+        for k in (0..colors.len()).rev() {
+            let [r, t] = traced.next[k];
+            if r == NONE && t == NONE {
+                continue;
+            }
+            let Some((_, index)) = traced.nodes[k].1 else { continue };
+            let material = scene.material(scene.objects[index as usize].material);
+            let mut color = colors[k];
+            if r != NONE {
+                color += material.reflectivity * colors[r as usize];
+            }
+            if t != NONE {
+                color += material.transparency * colors[t as usize];
+            }
+            colors[k] = color;
+        }
     }
 
     /// The surface that shading sees where `ray` hit object `index`.
@@ -179,7 +213,7 @@ impl<'w, 's> Integrator<'w, 's> {
         // Borrowed where `closest` wrote it: copying it out would read it back wider
         // than it was stored, which stalls store forwarding.
         let found = self.world.closest(ray, 0.0, f32::INFINITY);
-        self.shade(ray, &found, depth, None, stats)
+        self.shade(ray, &found, depth, stats)
     }
 
     /// The colour of what `ray` found (`None`: the background).
@@ -188,101 +222,76 @@ impl<'w, 's> Integrator<'w, 's> {
     /// τ·transmitted + specular`, the original's blending rules in one formula
     /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
     /// the original. Past the depth limit the reflected and transmitted shares are black.
-    ///
-    /// With `ahead`, node `k` of a [`Traced`] tile, the surface, the lights as the hit
-    /// sees them and the hits of the rays sent on were all found ahead; else they are
-    /// found here.
-    #[inline(always)]
-    fn shade(
-        &self,
-        ray: &Ray,
-        found: &Option<(Hit, u32)>,
-        depth: u32,
-        ahead: Option<(&Traced, usize)>,
-        stats: &mut RayStats,
-    ) -> Color {
+    fn shade(&self, ray: &Ray, found: &Option<(Hit, u32)>, depth: u32, stats: &mut RayStats) -> Color {
         let Some((hit, index)) = found else {
             return self.background;
         };
         let scene = self.world.scene();
         let object = &scene.objects[*index as usize];
         let material = scene.material(object.material);
-        let surface = match ahead {
-            Some((traced, k)) => traced.surfaces[k].get(),
-            None => object.shape.surface_uv(ray, hit, material.texture.uses_uv()),
-        };
-        let p = surface.point;
-        let (side, lit_from) = leaving(ray, &surface);
-        let n = self.light_normal(&surface, side, *index);
+        let surface = object.shape.surface_uv(ray, hit, material.texture.uses_uv());
+        let mut color = self.local(ray, &surface, *index, material, |_, light, lit_from, n| {
+            let (l, distance, n_dot_l) = towards(light.position, lit_from, n);
+            (n_dot_l > 0.0).then(|| {
+                stats.shadow += 1;
+                (l, n_dot_l, self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance))
+            })
+        });
+        let [r, t] = self.sent_on(ray, &surface, *index, depth, stats);
+        if let Some(r) = r {
+            color += material.reflectivity * self.trace(&r, depth + 1, stats);
+        }
+        if let Some(t) = t {
+            color += material.transparency * self.trace(&t, depth + 1, stats);
+        }
+        color
+    }
 
+    /// The own share of a hit of `ray` on object `index`, of `material`, at `surface`:
+    /// `(1 − ρ − τ)·(ambient + diffuse) + specular`. `seen(i, light, from, normal)`
+    /// gives light `i`'s unit direction, cosine and the share its shadow ray lets
+    /// through, or `None` where the light is behind the surface.
+    #[inline(always)]
+    fn local(
+        &self,
+        ray: &Ray,
+        surface: &Surface,
+        index: u32,
+        material: &Material,
+        mut seen: impl FnMut(usize, &PointLight, Vec3, Vec3) -> Option<(Vec3, f32, f32)>,
+    ) -> Color {
         let local_share = material.local_share();
         // A surface with no own share and no highlight (a perfect mirror) shows nothing
         // the lights could change: no texture lookup, no shadow rays. The colour is the
         // same, since 0·x + 0 is +0 for any finite x.
-        let mut color = if local_share == 0.0 && !(material.specular > 0.0) {
-            Color::ZERO
-        } else {
-            let base = material.texture.color(p, surface.uv);
-            let mut diffuse = Color::ZERO;
-            let mut specular = Color::ZERO;
-            // Lights act through the diffuse term and the highlight only: a black texel
-            // (the ceiling's dark squares) without a highlight needs no shadow rays.
-            if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
-                for (i, light) in scene.lights.iter().enumerate() {
-                    let (l, n_dot_l, visible) = match ahead {
-                        Some((traced, k)) => {
-                            let lit = &traced.lit[k * scene.lights.len() + i];
-                            if lit.n_dot_l <= 0.0 {
-                                continue; // the light is behind the surface
-                            }
-                            stats.shadow += 1;
-                            (lit.l, lit.n_dot_l, lit.visible)
-                        }
-                        None => {
-                            let (l, distance, n_dot_l) = towards(light.position, lit_from, n);
-                            if n_dot_l <= 0.0 {
-                                continue;
-                            }
-                            stats.shadow += 1;
-                            (l, n_dot_l, self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance))
-                        }
-                    };
-                    if visible == 0.0 {
-                        continue;
+        if local_share == 0.0 && !(material.specular > 0.0) {
+            return Color::ZERO;
+        }
+        let (side, lit_from) = leaving(ray, surface);
+        let n = self.light_normal(surface, side, index);
+        let base = material.texture.color(surface.point, surface.uv);
+        let mut diffuse = Color::ZERO;
+        let mut specular = Color::ZERO;
+        // Lights act through the diffuse term and the highlight only: a black texel
+        // (the ceiling's dark squares) without a highlight needs no shadow rays.
+        if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
+            for (i, light) in self.world.scene().lights.iter().enumerate() {
+                let Some((l, n_dot_l, visible)) = seen(i, light, lit_from, n) else {
+                    continue; // the light is behind the surface
+                };
+                if visible == 0.0 {
+                    continue;
+                }
+                diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
+                if material.specular > 0.0 {
+                    let r_dot_v = reflect(-l, n).dot(-ray.dir);
+                    if r_dot_v > 0.0 {
+                        specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
                     }
-                    diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
-                    if material.specular > 0.0 {
-                        let r_dot_v = reflect(-l, n).dot(-ray.dir);
-                        if r_dot_v > 0.0 {
-                            specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
-                        }
-                    }
-                }
-            }
-            local_share * (self.ambient * base + diffuse) + specular
-        };
-
-        if depth < self.max_depth {
-            if let Some((traced, k)) = ahead {
-                // Sent on, found and counted ahead ([`Integrator::sent_on`]).
-                let [r, t] = traced.next[k].map(|c| c as usize);
-                if material.reflectivity > 0.0 {
-                    color += material.reflectivity * self.shade_node(traced, r, depth + 1, stats);
-                }
-                if material.transparency > 0.0 {
-                    color += material.transparency * self.shade_node(traced, t, depth + 1, stats);
-                }
-            } else {
-                let [r, t] = self.sent_on(ray, &surface, *index, depth, stats);
-                if let Some(r) = r {
-                    color += material.reflectivity * self.trace(&r, depth + 1, stats);
-                }
-                if let Some(t) = t {
-                    color += material.transparency * self.trace(&t, depth + 1, stats);
                 }
             }
         }
-        color
+        local_share * (self.ambient * base + diffuse) + specular
     }
 }
 
@@ -293,7 +302,8 @@ pub struct Traced<'a> {
     pub nodes: &'a [(Ray, Option<(Hit, u32)>)],
     /// Per node, the surface hit ([`Integrator::surface`]; anything where none is).
     pub surfaces: &'a [PackedSurface],
-    /// Per node, the nodes of its reflected and transmitted rays (where it sends them).
+    /// Per node, the nodes of its reflected and transmitted rays ([`NONE`] where it
+    /// sends none). They come after it: a tile's levels are appended in turn.
     pub next: &'a [[u32; 2]],
     /// Per node and light (`k * lights + i`), the light as its hit sees it, where
     /// [`Integrator::may_light`]; anything elsewhere.
@@ -349,6 +359,7 @@ impl LightFrames {
         self.normal.clear();
     }
 
+    #[inline(always)]
     pub fn push(&mut self, node: u32, (from, normal): (Vec3, Vec3)) {
         let lane = self.nodes.len() % 8;
         if lane == 0 {
@@ -433,6 +444,7 @@ pub enum Transmission {
 /// original passed the index as an integer and bent exiting rays as if entering again).
 /// Past the critical angle the ray is reflected instead. With `ior` 1 the direction is
 /// kept exactly: plain transparency.
+#[inline]
 pub fn transmitted_ray(ray: &Ray, surface: &Surface, ior: f32) -> (Ray, Transmission) {
     let entering = ray.dir.dot(surface.normal) < 0.0;
     let n: Vec3 = if entering { surface.normal } else { -surface.normal };
