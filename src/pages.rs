@@ -20,10 +20,16 @@ pub fn on_huge_pages<T: Copy>(v: Vec<T>) -> Vec<T> {
     out
 }
 
-/// `n` copies of `x`, on huge pages if that is big enough.
-pub fn filled<T: Copy>(n: usize, x: T) -> Vec<T> {
-    let mut out = with_capacity(n);
-    out.resize(n, x);
+/// `n` zeros, on huge pages if that is big enough. Not written here: the memory comes
+/// zeroed from the allocator (fresh pages from the kernel, for big arrays), so each page
+/// is first touched, and faulted in, by whoever writes it first. A film is then faulted
+/// in by the threads rendering it, in parallel, not by one thread before they start.
+pub fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
+    let out: Vec<T> = bytemuck::allocation::zeroed_vec(n);
+    let bytes = n * std::mem::size_of::<T>();
+    if bytes >= MIN_BYTES {
+        advise_huge(out.as_ptr().cast::<u8>(), bytes);
+    }
     out
 }
 
@@ -70,8 +76,8 @@ mod tests {
         for n in [0usize, 10, 3 << 20] {
             let v: Vec<u32> = (0..n as u32).map(|i| i.wrapping_mul(2654435761)).collect();
             assert_eq!(on_huge_pages(v.clone()), v);
-            let f = filled(n, 7u8);
-            assert!(f.len() == n && f.iter().all(|&b| b == 7));
+            let z: Vec<u32> = zeroed(n);
+            assert!(z.len() == n && z.iter().all(|&b| b == 0));
         }
     }
 }

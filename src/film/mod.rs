@@ -24,7 +24,7 @@ pub enum OutputError {
 
 impl Image {
     pub fn new(width: u32, height: u32) -> Self {
-        Image { width, height, pixels: crate::pages::filled(width as usize * height as usize, Color::ZERO) }
+        Image { width, height, pixels: crate::pages::zeroed(width as usize * height as usize) }
     }
 
     pub fn width(&self) -> u32 {
