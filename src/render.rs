@@ -42,6 +42,14 @@ struct TileBuffers {
     sent: Vec<((u32, u32), u32, Ray)>,
 }
 
+/// The mean of each `n` colours in turn, appended to `pixels`: the samples of a pixel.
+/// Apart from the tile's big loop, whose registers were all taken, so that the sums
+/// went through memory.
+#[inline(never)]
+fn average(colors: &[Color], n: usize, pixels: &mut Vec<Color>) {
+    pixels.extend(colors.chunks(n).map(|samples| samples.iter().fold(Color::ZERO, |sum, &c| sum + c) / n as f32));
+}
+
 /// A configured render of one scene. Settings start from the scene's own and can be
 /// overridden one by one.
 #[derive(Clone, Debug)]
@@ -293,17 +301,15 @@ impl<'s> Renderer<'s> {
             self.trace_ahead(world, integrator, buf, stats);
         }
         let TileBuffers { pixels, samples, found, next, surfaces, lit, colors, .. } = buf;
+        let n = samples.len();
         if culled {
             integrator.shade_traced(&Traced { nodes: found, surfaces, next, lit }, colors, stats);
             stats.primary += camera_rays as u64;
-        }
-        let n = samples.len();
-        for (p, pixel) in found[..camera_rays].chunks(n).enumerate() {
-            let mut sum = Color::ZERO;
-            for (s, (ray, _)) in pixel.iter().enumerate() {
-                sum += if culled { colors[p * n + s] } else { integrator.trace_primary(ray, stats) };
-            }
-            pixels.push(sum / n as f32);
+            average(&colors[..camera_rays], n, pixels);
+        } else {
+            colors.clear();
+            colors.extend(found.iter().map(|(ray, _)| integrator.trace_primary(ray, stats)));
+            average(colors, n, pixels);
         }
     }
 
