@@ -50,6 +50,24 @@ fn average(colors: &[Color], n: usize, pixels: &mut Vec<Color>) {
     pixels.extend(colors.chunks(n).map(|samples| samples.iter().fold(Color::ZERO, |sum, &c| sum + c) / n as f32));
 }
 
+/// The surfaces hit by the rays of `buf.found` from node `from` on, into `buf.surfaces`,
+/// and, per object hit, a box round its hit points, into `buf.hits`.
+#[inline(never)]
+fn surfaces_hit(integrator: &Integrator, buf: &mut TileBuffers, from: usize) {
+    let TileBuffers { found, surfaces, hits, .. } = buf;
+    hits.clear();
+    surfaces.resize(found.len(), PackedSurface::default());
+    for (k, (ray, hit)) in found.iter().enumerate().skip(from) {
+        if let Some((h, i)) = hit {
+            surfaces[k] = integrator.surface(ray, h, *i);
+            match hits.iter_mut().find(|(o, _)| o == i) {
+                Some((_, b)) => *b = b.grow(ray.at(h.t)),
+                None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
+            }
+        }
+    }
+}
+
 /// A configured render of one scene. Settings start from the scene's own and can be
 /// overridden one by one.
 #[derive(Clone, Debug)]
@@ -327,19 +345,8 @@ impl<'s> Renderer<'s> {
         let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
         let (mut level, mut depth) = (0..buf.found.len(), 1u32);
         loop {
-            let TileBuffers { found, surfaces, hits, blockers, .. } = &mut *buf;
-            // The surfaces hit and, per object hit, a box round its hit points.
-            hits.clear();
-            surfaces.resize(found.len(), PackedSurface::default());
-            for (k, (ray, hit)) in found.iter().enumerate().skip(level.start) {
-                if let Some((h, i)) = hit {
-                    surfaces[k] = integrator.surface(ray, h, *i);
-                    match hits.iter_mut().find(|(o, _)| o == i) {
-                        Some((_, b)) => *b = b.grow(ray.at(h.t)),
-                        None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
-                    }
-                }
-            }
+            surfaces_hit(integrator, buf, level.start);
+            let TileBuffers { hits, blockers, .. } = &mut *buf;
             // Kept from tile to tile, to allocate nothing.
             blockers.resize_with(lights.len(), || None);
             for (b, l) in blockers.iter_mut().zip(lights) {
@@ -359,6 +366,7 @@ impl<'s> Renderer<'s> {
 
     /// Each light as the hits of nodes `level` see it, into `buf.lit`, the shadow rays
     /// to it tested together against the objects that may shadow them (`buf.blockers`).
+    #[inline(never)]
     fn look_at_lights(&self, integrator: &Integrator, buf: &mut TileBuffers, level: std::ops::Range<usize>) {
         let TileBuffers { found, surfaces, blockers, lit, frames, .. } = buf;
         let lights = self.scene.lights.len();
@@ -381,6 +389,7 @@ impl<'s> Renderer<'s> {
     /// `buf.next` and counted in `stats`, with what they hit: a group of four or more
     /// tested only against what it may meet ([`World::seen_along`]), eight at a time.
     /// Returns the new nodes, if any.
+    #[inline(never)]
     fn send_on(
         &self,
         world: &World,
