@@ -25,6 +25,8 @@ struct TileBuffers {
     /// Per node, the colour seen along its ray.
     colors: Vec<Color>,
     samples: Vec<Vec2>,
+    /// Where the tile's camera rays go through the image, in pixels.
+    points: Vec<Vec2>,
     /// The tile's rays and their hits: camera rays, then those sent on ([`Traced`]).
     found: Vec<(Ray, Option<(Hit, u32)>)>,
     next: Vec<[u32; 2]>,
@@ -295,18 +297,20 @@ impl<'s> Renderer<'s> {
         buf: &mut TileBuffers,
         stats: &mut RayStats,
     ) {
-        let TileBuffers { pixels, samples, found, seen, .. } = buf;
+        let TileBuffers { pixels, samples, points, found, seen, .. } = buf;
         pixels.clear();
         found.clear();
+        points.clear();
         for y in y0..y1 {
             for x in x0..x1 {
                 // One sample needs no random numbers: it goes through the pixel centre.
                 if self.spp > 1 || samples.is_empty() {
                     pixel_samples(self.spp, &mut Rng::for_pixel(x, y, 0), samples);
                 }
-                found.extend(samples.iter().map(|s| (rig.ray(x as f32 + s.x, y as f32 + s.y), None)));
+                points.extend(samples.iter().map(|s| Vec2::new(x as f32 + s.x, y as f32 + s.y)));
             }
         }
+        rig.rays(points, |ray| found.push((ray, None)));
         // In a small scene the tile's camera rays test only the objects its cone of
         // rays meets (samples stay inside their pixels), and their hits are all found
         // first, so that the shadow rays from them test only the objects that can stand
