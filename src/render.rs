@@ -59,14 +59,28 @@ fn surfaces_hit(integrator: &Integrator, buf: &mut TileBuffers, from: usize) {
     let TileBuffers { found, surfaces, hits, .. } = buf;
     hits.clear();
     surfaces.resize(found.len(), PackedSurface::default());
+    // Hits come in runs on one object: each run's box is grown on its own, then merged.
+    let merge = |hits: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)| match hits.iter_mut().find(|(o, _)| *o == i) {
+        Some((_, b)) => *b = b.union(run),
+        None => hits.push((i, run)),
+    };
+    let mut run: Option<(u32, Aabb)> = None;
     for (k, (ray, hit)) in found.iter().enumerate().skip(from) {
         if let Some((h, i)) = hit {
             surfaces[k] = integrator.surface(ray, h, *i);
-            match hits.iter_mut().find(|(o, _)| o == i) {
-                Some((_, b)) => *b = b.grow(ray.at(h.t)),
-                None => hits.push((*i, Aabb::EMPTY.grow(ray.at(h.t)))),
+            let p = ray.at(h.t);
+            match &mut run {
+                Some((o, b)) if o == i => *b = b.grow(p),
+                _ => {
+                    if let Some(done) = run.replace((*i, Aabb::EMPTY.grow(p))) {
+                        merge(hits, done);
+                    }
+                }
             }
         }
+    }
+    if let Some(done) = run {
+        merge(hits, done);
     }
 }
 
