@@ -262,21 +262,21 @@ impl<'s> Renderer<'s> {
         let done = std::sync::atomic::AtomicUsize::new(0);
         let mut image = Image::new(self.width, self.height);
         // A band of tiles, TILE rows of the image, per task: tiles write their pixels
-        // straight into the image, and a band's buffers serve all its tiles.
+        // straight into the image, and a worker's buffers serve all the bands it takes
+        // in a row (made afresh per band, they were grown again 50 times a frame).
         let bands: Vec<RayStats> = image
             .pixels_mut()
             .par_chunks_mut(TILE as usize * width)
             .enumerate()
-            .map(|(band, rows)| {
+            .map_init(TileBuffers::default, |tile, (band, rows)| {
                 let mut stats = RayStats::default();
-                let mut tile = TileBuffers::default();
                 let (y0, y1) = (band as u32 * TILE, (band as u32 * TILE + TILE).min(self.height));
                 for x0 in (0..self.width).step_by(TILE as usize) {
                     if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                         return None;
                     }
                     let x1 = (x0 + TILE).min(self.width);
-                    self.render_tile(world, &rig, &integrator, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    self.render_tile(world, &rig, &integrator, (x0, y0, x1, y1), tile, &mut stats);
                     for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
                         let at = y * width + x0 as usize;
                         rows[at..at + row.len()].copy_from_slice(row);
