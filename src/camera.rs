@@ -113,8 +113,9 @@ impl CameraRig {
                     row[lane] *= recip;
                 }
             }
-            for lane in 0..chunk.len() {
-                each(Ray { origin: self.origin, dir: Vec3::new(d[0][lane], d[1][lane], d[2][lane]) });
+            let [x, y, z] = d;
+            for ((x, y), z) in x.into_iter().zip(y).zip(z).take(chunk.len()) {
+                each(Ray { origin: self.origin, dir: Vec3::new(x, y, z) });
             }
         }
     }
