@@ -25,23 +25,23 @@ pub fn on_huge_pages<T: Copy>(v: Vec<T>) -> Vec<T> {
 /// is first touched, and faulted in, by whoever writes it first. A film is then faulted
 /// in by the threads rendering it, in parallel, not by one thread before they start.
 pub fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Vec<T> {
-    let out: Vec<T> = bytemuck::allocation::zeroed_vec(n);
-    let bytes = n * std::mem::size_of::<T>();
-    if bytes >= MIN_BYTES {
-        advise_huge(out.as_ptr().cast::<u8>(), bytes);
-    }
-    out
+    advised(bytemuck::allocation::zeroed_vec(n), n)
 }
 
 /// An empty vector with room for `n`, its memory advised for huge pages if it is big:
 /// fill it without growing it past `n`, which would move it to memory not so advised.
 pub fn with_capacity<T>(n: usize) -> Vec<T> {
-    let out: Vec<T> = Vec::with_capacity(n);
+    advised(Vec::with_capacity(n), n)
+}
+
+/// `v`, fresh and not yet written, with room for `n`: its memory advised for huge pages
+/// if it is big enough.
+fn advised<T>(v: Vec<T>, n: usize) -> Vec<T> {
     let bytes = n * std::mem::size_of::<T>();
     if bytes >= MIN_BYTES {
-        advise_huge(out.as_ptr().cast::<u8>(), bytes);
+        advise_huge(v.as_ptr().cast::<u8>(), bytes);
     }
-    out
+    v
 }
 
 /// Asks for huge pages for the whole pages inside `bytes` bytes from `start`. A hint:
