@@ -11,8 +11,11 @@
 //!   sphere, from the same generator and seed as the Embree benchmark (mt19937-64, 12345).
 //!
 //! Rays are traced in batches, as the renderer traces a tile's rays against a mesh:
-//! through a mesh several tree walks at a time, interleaved ([`World::closest_each`],
-//! [`World::transmittance_each`]); elsewhere one by one.
+//! through a mesh eight at a time, as one packet where they head into one octant (camera
+//! rays and shadow rays to one light, mostly), else several tree walks at a time,
+//! interleaved ([`World::closest_each`], [`World::transmittance_each`]); elsewhere one
+//! by one. So the primary and shadow rates are those of packets of eight neighbouring
+//! rays, each ray finding what its own walk finds.
 
 use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraRig};
