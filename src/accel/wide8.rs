@@ -378,9 +378,6 @@ impl Bvh8 {
 /// overflow it is walked ray by ray. Small in tests, so that they cover that path.
 const PACKET_DEEP: usize = if cfg!(test) { 3 } else { 32 };
 
-/// Rays at or below which a packet's node visit is left to each ray's own walk.
-const ALONE: u32 = 1;
-
 impl Bvh8 {
     /// Up to eight nearest-first walks as one, if the rays of `live` (a bit each) all
     /// head into one octant; `false`, and nothing done, if not (unrelated rays share
@@ -440,15 +437,6 @@ impl Bvh8 {
                     let k = m.trailing_zeros() as usize;
                     m &= m - 1;
                     t_max[k] = leaf(k, first..first + count as usize, t_max[k]);
-                }
-            } else if mask.count_ones() <= ALONE {
-                // Too few rays left to share a node visit: each goes on by itself.
-                let mut h = mask;
-                while h != 0 {
-                    let k = h.trailing_zeros() as usize;
-                    h &= h - 1;
-                    let mut go_on = |range, t| Visit::Continue(leaf(k, range, t));
-                    self.walk::<true, T>(rays[k], (packed, 0.0), t_min, &mut t_max[k], items, &mut go_on);
                 }
             } else {
                 let n = &self.nodes[index as usize];
@@ -568,21 +556,6 @@ impl Bvh8 {
             let (index, count) = unpack(packed);
             if mask == 0 {
                 // Every ray of this entry is blocked already.
-            } else if count == 0 && mask.count_ones() <= ALONE {
-                // Too few rays left to share a node visit: each goes on by itself.
-                let mut h = mask;
-                while h != 0 {
-                    let k = h.trailing_zeros() as usize;
-                    h &= h - 1;
-                    let mut stop = |range, t| if leaf(k, range) { Visit::Stop } else { Visit::Continue(t) };
-                    if !self.walk::<false, T>(rays[k], (packed, 0.0), t_min, &mut t_max[k], items, &mut stop) {
-                        blocked |= 1 << k;
-                        live &= !(1 << k);
-                    }
-                }
-                if live == 0 {
-                    return blocked;
-                }
             } else if count > 0 {
                 let first = index as usize;
                 let mut m = mask;
