@@ -62,6 +62,9 @@ impl AccelKind {
 struct MeshBvh {
     tree: WideBvh,
     packs: Vec<Tri4>,
+    /// The mean largest side of the leaves' boxes: shadow rays whose origins lie much
+    /// farther apart than this start in different leaves.
+    leaf_size: f32,
 }
 
 impl MeshBvh {
@@ -87,7 +90,11 @@ impl MeshBvh {
             (start, packs.len() as u32 - start)
         });
         debug_assert_eq!(packs.len(), pack_count);
-        MeshBvh { tree, packs }
+        let leaves = bvh.nodes.iter().filter(|n| n.is_leaf());
+        let sides: f64 =
+            leaves.clone().map(|n| (0..3).map(|a| n.max[a] - n.min[a]).fold(0.0f32, f32::max) as f64).sum();
+        let leaf_size = (sides / leaves.count().max(1) as f64) as f32;
+        MeshBvh { tree, packs, leaf_size }
     }
 
     fn memory_bytes(&self) -> usize {
@@ -219,18 +226,18 @@ impl MeshBvh {
     }
 
     /// The lanes of `live` (a bit each) whose ray a triangle blocks between 0 and
-    /// `t_max[lane]`. Rays that all head into one octant (shadow rays from neighbouring
-    /// points to one light, mostly) go down the 8-wide tree as one packet
-    /// ([`wide8::Bvh8::any_packet`]); others three walks at a time.
+    /// `t_max[lane]`. Rays that all head into one octant from origins within a few
+    /// leaves of each other (shadow rays from neighbouring points to one light, mostly)
+    /// go down the 8-wide tree as one packet ([`wide8::Bvh8::any_packet`]); others three
+    /// walks at a time. Shadow rays from origins farther apart part ways near them,
+    /// where a packet tests eight rays for one, and lose the interleaved walks' overlap
+    /// of cache misses: from 8 neighbouring pixels of the benchmark camera on the
+    /// 10M-triangle cube-sphere (leaves about a pixel wide, origins 5 to 9 leaves apart)
+    /// packets were 4 to 13 % slower; on the 1M-triangle one (leaves four pixels wide,
+    /// origins 1.5 to 2.5 leaves apart) 6 to 19 % faster.
     fn occluded_eight(&self, rays: &[Ray; 8], t_max: [f32; 8], live: u32) -> u32 {
-        #[cfg(target_arch = "x86_64")]
-        if let WideBvh::Eight(tree) = &self.tree {
-            let blocked = tree.any_packet(rays.each_ref(), live, 0.0, t_max, &self.packs, |k, range| {
-                self.leaf_blocks(range, &Ray4::new(&rays[k]), 0.0, t_max[k])
-            });
-            if let Some(blocked) = blocked {
-                return blocked;
-            }
+        if let Some(blocked) = self.occluded_packet(rays, t_max, live) {
+            return blocked;
         }
         let mut blocked = 0;
         in_groups(live, 3, |g| match *g {
@@ -240,9 +247,27 @@ impl MeshBvh {
                     blocked |= (hit as u32) << lane;
                 }
             }
+            [a, b] => {
+                let hit = self.occluded_each([&rays[a], &rays[b]], [t_max[a], t_max[b]]);
+                blocked |= (hit[0] as u32) << a | (hit[1] as u32) << b;
+            }
             _ => g.iter().for_each(|&lane| blocked |= (self.occluded(&rays[lane], 0.0, t_max[lane]) as u32) << lane),
         });
         blocked
+    }
+
+    /// [`MeshBvh::occluded_eight`]'s packet, or `None` where it does not take the rays.
+    #[inline]
+    fn occluded_packet(&self, rays: &[Ray; 8], t_max: [f32; 8], live: u32) -> Option<u32> {
+        #[cfg(target_arch = "x86_64")]
+        if let WideBvh::Eight(tree) = &self.tree
+            && origins_within(rays, live, SHADOW_PACKET_LEAVES * self.leaf_size)
+        {
+            return tree.any_packet(rays.each_ref(), live, 0.0, t_max, &self.packs, |k, range| {
+                self.leaf_blocks(range, &Ray4::new(&rays[k]), 0.0, t_max[k])
+            });
+        }
+        None
     }
 
     /// [`MeshBvh::closest`] (from 0, within `t_max[lane]`) for the rays `ray(lane)` of
@@ -269,6 +294,22 @@ impl MeshBvh {
         }
         self.packs[range].iter().any(|p| p.intersect(r4, t_min, t_max).0 != 0)
     }
+}
+
+/// How many leaves apart (in [`MeshBvh::leaf_size`]) the origins of shadow rays may lie
+/// for them to go as one packet.
+const SHADOW_PACKET_LEAVES: f32 = 3.0;
+
+/// Whether the origins of the rays of `live` (a bit each) lie within `size` of each
+/// other along each axis.
+#[inline]
+fn origins_within(rays: &[Ray; 8], live: u32, size: f32) -> bool {
+    let first = rays[live.trailing_zeros().min(7) as usize].origin;
+    let (mut lo, mut hi) = (first, first);
+    for k in (0..8).filter(|k| live >> k & 1 != 0) {
+        (lo, hi) = (lo.min(rays[k].origin), hi.max(rays[k].origin));
+    }
+    (hi - lo).max_element() <= size
 }
 
 /// The lanes set in `live` to `f`, `size` at a time, then those left over.
@@ -888,9 +929,10 @@ impl<'s> World<'s> {
     }
 
     /// [`World::transmittance`] for each shadow ray and length of `rays`, into `out` (as
-    /// long): in a world of one mesh, eight at a time, as one packet where they head into
-    /// one octant ([`wide8::Bvh8::any_packet`]), else three walks at a time,
-    /// interleaved ([`wide8::Bvh8::any_hits`]); elsewhere one ray after another.
+    /// long): in a world of one mesh, eight at a time, as one packet where
+    /// [`MeshBvh::occluded_eight`] takes them ([`wide8::Bvh8::any_packet`]), the others
+    /// three walks at a time, interleaved ([`wide8::Bvh8::any_hits`]); elsewhere one ray
+    /// after another.
     pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
         let [Some(mesh)] = &self.meshes[..] else {
             for ((ray, t), light) in rays.iter().zip(out) {
@@ -900,21 +942,31 @@ impl<'s> World<'s> {
         };
         // As `transmittance` finds it: the mesh's transmission if it lies across the ray.
         let light = |blocked: bool| if blocked { (1.0f64 * self.transmission[0] as f64) as f32 } else { 1.0 };
-        let (mut eights, mut lights8) = (rays.chunks_exact(8), out.chunks_exact_mut(8));
-        for (g, out) in (&mut eights).zip(&mut lights8) {
-            let blocked = mesh.occluded_eight(&std::array::from_fn(|k| g[k].0), std::array::from_fn(|k| g[k].1), 0xff);
-            for (k, light_k) in out.iter_mut().enumerate() {
-                *light_k = light(blocked >> k & 1 != 0);
+        // Rays the packets do not take wait in `left` to walk three at a time.
+        let (mut left, mut n) = ([0usize; 3], 0);
+        for (start, g) in rays.chunks(8).enumerate().map(|(i, g)| (8 * i, g)) {
+            if let Ok(g) = <&[(Ray, f32); 8]>::try_from(g)
+                && let Some(blocked) = mesh.occluded_packet(&g.map(|(r, _)| r), g.map(|(_, t)| t), 0xff)
+            {
+                for (k, light_k) in out[start..start + 8].iter_mut().enumerate() {
+                    *light_k = light(blocked >> k & 1 != 0);
+                }
+                continue;
+            }
+            for i in start..start + g.len() {
+                (left[n], n) = (i, n + 1);
+                if n == 3 {
+                    let [a, b, c] = left.map(|i| &rays[i]);
+                    let blocked = mesh.occluded_each([&a.0, &b.0, &c.0], [a.1, b.1, c.1]);
+                    for (i, blocked) in left.into_iter().zip(blocked) {
+                        out[i] = light(blocked);
+                    }
+                    n = 0;
+                }
             }
         }
-        let (rays, out) = (eights.remainder(), lights8.into_remainder());
-        let (mut groups, mut lights) = (rays.chunks_exact(3), out.chunks_exact_mut(3));
-        for (g, out) in (&mut groups).zip(&mut lights) {
-            let blocked = mesh.occluded_each([&g[0].0, &g[1].0, &g[2].0], [g[0].1, g[1].1, g[2].1]);
-            out.copy_from_slice(&blocked.map(light));
-        }
-        for ((ray, t), out) in groups.remainder().iter().zip(lights.into_remainder()) {
-            *out = light(mesh.occluded(ray, 0.0, *t));
+        for &i in &left[..n] {
+            out[i] = light(mesh.occluded(&rays[i].0, 0.0, rays[i].1));
         }
     }
 
@@ -1327,6 +1379,29 @@ mod tests {
             }
             let blocked = want.iter().filter(|&&l| l < 1.0).count();
             assert!(blocked > 300 && blocked < 2700, "{blocked} of {} blocked", want.len());
+            // Bundles of eight, as packets take them: camera rays from one eye, and
+            // shadow rays from points close together to one light.
+            let eye = Vec3::new(0.3, 0.4, 3.0);
+            let camera: Vec<Ray> = (0..64 * 64)
+                .map(|i| Ray::new(eye, Vec3::new((i % 64) as f32 / 64.0 - 0.5, (i / 64) as f32 / 64.0 - 0.5, -1.5)))
+                .collect();
+            let want: Vec<_> = camera.iter().map(|ray| world.closest(ray, 0.0, f32::INFINITY)).collect();
+            let mut got = vec![None; camera.len()];
+            world.closest_each(&camera, 0.0, f32::INFINITY, &mut got);
+            assert_eq!(got, want, "camera rays, width {width}");
+            let light = Vec3::new(3.0, 1.0, 0.5);
+            let shadow: Vec<(Ray, f32)> = want
+                .iter()
+                .zip(&camera)
+                .filter_map(|(hit, ray)| hit.map(|(h, _)| ray.at(h.t) - 1e-3 * ray.dir))
+                .map(|p| (Ray::new(p, light - p), (light - p).length() * 0.999))
+                .collect();
+            let want: Vec<f32> = shadow.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
+            let mut got = vec![0.0; shadow.len()];
+            world.transmittance_each(&shadow, &mut got);
+            assert_eq!(got, want, "shadow rays, width {width}");
+            let blocked = want.iter().filter(|&&l| l < 1.0).count();
+            assert!(blocked > 100 && blocked + 100 < want.len(), "{blocked} of {} blocked", want.len());
         }
     }
 
