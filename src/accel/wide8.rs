@@ -848,6 +848,33 @@ mod tests {
     /// Interleaved walks that overflowed their stack (into a nested walk).
     pub(super) static OVERFLOWS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 
+    /// The nearest-hit leaf of the walk tests: a primitive is hit where the ray enters
+    /// its box (of `boxes`, by `bvh`'s leaf order); the nearest wins, ties to the lower
+    /// id. Returns the new bound.
+    fn nearest_box(
+        boxes: &[crate::math::Aabb],
+        bvh: &Bvh,
+        ray: &Ray,
+        range: std::ops::Range<usize>,
+        mut t: f32,
+        best: &mut Option<(f32, u32)>,
+    ) -> f32 {
+        for id in range.map(|i| bvh.indices[i]) {
+            let (near, far) = (0..3).fold((0.0f32, f32::INFINITY), |(near, far), axis| {
+                let inv = 1.0 / ray.dir[axis];
+                let (a, c) = (
+                    (boxes[id as usize].min[axis] - ray.origin[axis]) * inv,
+                    (boxes[id as usize].max[axis] - ray.origin[axis]) * inv,
+                );
+                (near.max(a.min(c)), far.min(a.max(c)))
+            });
+            if near <= far && (near < t || best.is_some_and(|(bt, bid)| near == bt && id < bid)) {
+                (t, *best) = (near, Some((near, id)));
+            }
+        }
+        t
+    }
+
     /// Three interleaved nearest-first walks find the same nearest primitive as one
     /// walk per ray (a primitive's distance made up from its id), with stacks that
     /// overflow into nested walks.
@@ -862,25 +889,7 @@ mod tests {
                 eprintln!("no AVX2 here: the 8-wide tree is not tested");
                 return;
             };
-            // A primitive is hit where the ray enters its box; the nearest wins, ties
-            // to the lower id.
-            let nearest = |ray: &Ray, range: std::ops::Range<usize>, t: f32, best: &mut Option<(f32, u32)>| {
-                let mut t = t;
-                for id in range.map(|i| bvh.indices[i]) {
-                    let (near, far) = (0..3).fold((0.0f32, f32::INFINITY), |(near, far), axis| {
-                        let inv = 1.0 / ray.dir[axis];
-                        let (a, c) = (
-                            (b[id as usize].min[axis] - ray.origin[axis]) * inv,
-                            (b[id as usize].max[axis] - ray.origin[axis]) * inv,
-                        );
-                        (near.max(a.min(c)), far.min(a.max(c)))
-                    });
-                    if near <= far && (near < t || best.is_some_and(|(bt, bid)| near == bt && id < bid)) {
-                        (t, *best) = (near, Some((near, id)));
-                    }
-                }
-                t
-            };
+            let nearest = |ray: &Ray, range, t, best: &mut _| nearest_box(&b, &bvh, ray, range, t, best);
             let mut s = 5u64;
             for _ in 0..1500 {
                 let rays: [Ray; 3] = std::array::from_fn(|_| {
@@ -926,25 +935,7 @@ mod tests {
                 eprintln!("no AVX2 here: the 8-wide tree is not tested");
                 return;
             };
-            // As in `interleaved_nearest_walks_match_walks_one_by_one`: a primitive is
-            // hit where the ray enters its box; the nearest wins, ties to the lower id.
-            let nearest = |ray: &Ray, range: std::ops::Range<usize>, t: f32, best: &mut Option<(f32, u32)>| {
-                let mut t = t;
-                for id in range.map(|i| bvh.indices[i]) {
-                    let (near, far) = (0..3).fold((0.0f32, f32::INFINITY), |(near, far), axis| {
-                        let inv = 1.0 / ray.dir[axis];
-                        let (a, c) = (
-                            (b[id as usize].min[axis] - ray.origin[axis]) * inv,
-                            (b[id as usize].max[axis] - ray.origin[axis]) * inv,
-                        );
-                        (near.max(a.min(c)), far.min(a.max(c)))
-                    });
-                    if near <= far && (near < t || best.is_some_and(|(bt, bid)| near == bt && id < bid)) {
-                        (t, *best) = (near, Some((near, id)));
-                    }
-                }
-                t
-            };
+            let nearest = |ray: &Ray, range, t, best: &mut _| nearest_box(&b, &bvh, ray, range, t, best);
             let mut s = 5u64;
             let mut next = || {
                 s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
