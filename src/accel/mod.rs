@@ -216,13 +216,7 @@ impl MeshBvh {
     /// The lanes of `live` (a bit each) whose ray `ray(lane)` a triangle blocks between
     /// 0 and `t_max[lane]` ([`MeshBvh::occluded_eight`]).
     fn occluded_lanes(&self, ray: impl Fn(usize) -> Ray, t_max: [f32; 8], live: u32) -> u32 {
-        if live == 0 {
-            return 0;
-        }
-        // Dead lanes carry a copy of a live ray, never looked at.
-        let first = ray(live.trailing_zeros() as usize);
-        let rays = std::array::from_fn(|lane| if live >> lane & 1 != 0 { ray(lane) } else { first });
-        self.occluded_eight(&rays, t_max, live)
+        lane_rays(ray, live).map_or(0, |rays| self.occluded_eight(&rays, t_max, live))
     }
 
     /// The lanes of `live` (a bit each) whose ray a triangle blocks between 0 and
@@ -273,13 +267,7 @@ impl MeshBvh {
     /// [`MeshBvh::closest`] (from 0, within `t_max[lane]`) for the rays `ray(lane)` of
     /// the lanes of `live` ([`MeshBvh::closest_eight`]).
     fn closest_lanes(&self, ray: impl Fn(usize) -> Ray, t_max: [f32; 8], live: u32) -> [Option<Hit>; 8] {
-        if live == 0 {
-            return [None; 8];
-        }
-        // Dead lanes carry a copy of a live ray, never looked at.
-        let first = ray(live.trailing_zeros() as usize);
-        let rays = std::array::from_fn(|lane| if live >> lane & 1 != 0 { ray(lane) } else { first });
-        self.closest_eight(&rays, 0.0, t_max, live)
+        lane_rays(ray, live).map_or([None; 8], |rays| self.closest_eight(&rays, 0.0, t_max, live))
     }
 
     /// Whether a triangle of leaf `range` lies across the ray within `(t_min, t_max)`.
@@ -310,6 +298,14 @@ fn origins_within(rays: &[Ray; 8], live: u32, size: f32) -> bool {
         (lo, hi) = (lo.min(rays[k].origin), hi.max(rays[k].origin));
     }
     (hi - lo).max_element() <= size
+}
+
+/// The rays `ray(lane)` of the lanes of `live` (a bit each), the dead lanes carrying a
+/// copy of a live one, never looked at; `None` if no lane is live.
+#[inline]
+fn lane_rays(ray: impl Fn(usize) -> Ray, live: u32) -> Option<[Ray; 8]> {
+    let first = ray((live != 0).then(|| live.trailing_zeros() as usize)?);
+    Some(std::array::from_fn(|lane| if live >> lane & 1 != 0 { ray(lane) } else { first }))
 }
 
 /// The lanes set in `live` to `f`, `size` at a time, then those left over.

@@ -629,9 +629,8 @@ impl Bvh8 {
 struct Packet8 {
     org: [__m256; 3],
     inv: [__m256; 3],
-    /// Per axis, the row of `Node8::bounds` every ray enters through, and the one it leaves.
+    /// Per axis, the row of `Node8::bounds` every ray enters through.
     near_row: [usize; 3],
-    far_row: [usize; 3],
 }
 
 impl Packet8 {
@@ -661,7 +660,6 @@ impl Packet8 {
             org,
             inv: d.map(|d| _mm256_div_ps(one, d)),
             near_row: [0, 1, 2].map(|i| if neg[i] != 0 { 3 + i } else { i }),
-            far_row: [0, 1, 2].map(|i| if neg[i] != 0 { i } else { 3 + i }),
         })
     }
 }
@@ -674,7 +672,9 @@ macro_rules! enter_packet {
     ($p:expr, $n:expr, $c:expr, $t_min:expr, $t_max:expr) => {{
         let (p, n, c): (&Packet8, &Node8, usize) = ($p, $n, $c);
         let axis = |i: usize| {
-            let (near, far) = (_mm256_set1_ps(n.bounds[p.near_row[i]][c]), _mm256_set1_ps(n.bounds[p.far_row[i]][c]));
+            let row = p.near_row[i];
+            let far_row = if row >= 3 { row - 3 } else { row + 3 };
+            let (near, far) = (_mm256_set1_ps(n.bounds[row][c]), _mm256_set1_ps(n.bounds[far_row][c]));
             (
                 _mm256_mul_ps(_mm256_sub_ps(near, p.org[i]), p.inv[i]),
                 _mm256_mul_ps(_mm256_sub_ps(far, p.org[i]), p.inv[i]),
