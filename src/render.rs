@@ -11,7 +11,8 @@ use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
 
 /// Tile edge in pixels: small enough to balance load across threads, big enough that
@@ -42,6 +43,38 @@ struct TileBuffers {
     /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
     /// the node sending it, the ray.
     sent: Vec<((u32, u32), u32, Ray)>,
+}
+
+/// The tiles of an image, in reading order, shared out among workers: each starts on a
+/// run of its own and, when that is done, takes the back half (rounded up) of the longest
+/// run left. So the workers finish within a tile of each other (with bands of tiles as
+/// rayon tasks, one sat idle for up to a few bands at the end), and each works in its own
+/// part of the image (taking tiles side by side, two threads wrote into the same rows
+/// and faulted in the same pages, and were slower).
+struct TileQueue {
+    runs: Mutex<Vec<std::ops::Range<usize>>>,
+}
+
+impl TileQueue {
+    fn new(tiles: usize, workers: usize) -> Self {
+        let at = |w: usize| w * tiles / workers;
+        TileQueue { runs: Mutex::new((0..workers).map(|w| at(w)..at(w + 1)).collect()) }
+    }
+
+    /// The next tile for `worker`, or `None` when every tile is taken.
+    fn take(&self, worker: usize) -> Option<usize> {
+        let mut runs = self.runs.lock().unwrap_or_else(|e| e.into_inner());
+        if runs[worker].is_empty() {
+            let (longest, len) = runs.iter().map(|r| r.len()).enumerate().max_by_key(|&(_, len)| len)?;
+            if len == 0 {
+                return None;
+            }
+            let split = runs[longest].end - len.div_ceil(2);
+            runs[worker] = split..runs[longest].end;
+            runs[longest].end = split;
+        }
+        runs[worker].next()
+    }
 }
 
 /// The mean of each `n` colours in turn, appended to `pixels`: the samples of a pixel.
@@ -257,37 +290,41 @@ impl<'s> Renderer<'s> {
             return self.render_corners(&rig, &integrator, progress, cancel, start);
         }
 
-        let (width, tiles_x) = (self.width as usize, self.width.div_ceil(TILE));
-        let total = (tiles_x * self.height.div_ceil(TILE)) as usize;
-        let done = std::sync::atomic::AtomicUsize::new(0);
+        let (width, tiles_x) = (self.width as usize, self.width.div_ceil(TILE) as usize);
+        let total = tiles_x * self.height.div_ceil(TILE) as usize;
+        let done = AtomicUsize::new(0);
         let mut image = Image::new(self.width, self.height);
-        // A band of tiles, TILE rows of the image, per task: tiles write their pixels
-        // straight into the image, and a worker's buffers serve all the bands it takes
-        // in a row (made afresh per band, they were grown again 50 times a frame).
-        let bands: Vec<RayStats> = image
-            .pixels_mut()
-            .par_chunks_mut(TILE as usize * width)
-            .enumerate()
-            .map_init(TileBuffers::default, |tile, (band, rows)| {
-                let mut stats = RayStats::default();
-                let (y0, y1) = (band as u32 * TILE, (band as u32 * TILE + TILE).min(self.height));
-                for x0 in (0..self.width).step_by(TILE as usize) {
+        let workers = rayon::current_num_threads().min(total);
+        let queue = TileQueue::new(total, workers);
+        // A tile writes its pixels into its band of TILE rows, locked only for the copy;
+        // a worker keeps its buffers for all the tiles it takes.
+        let bands: Vec<Mutex<&mut [Color]>> =
+            image.pixels_mut().chunks_mut(TILE as usize * width).map(Mutex::new).collect();
+        let per_worker: Vec<RayStats> = (0..workers)
+            .into_par_iter()
+            .with_max_len(1)
+            .map(|worker| {
+                let (mut tile, mut stats) = (TileBuffers::default(), RayStats::default());
+                while let Some(i) = queue.take(worker) {
                     if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                         return None;
                     }
-                    let x1 = (x0 + TILE).min(self.width);
-                    self.render_tile(world, &rig, &integrator, (x0, y0, x1, y1), tile, &mut stats);
+                    let (x0, y0) = ((i % tiles_x) as u32 * TILE, (i / tiles_x) as u32 * TILE);
+                    let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
+                    self.render_tile(world, &rig, &integrator, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    let mut rows = bands[i / tiles_x].lock().unwrap_or_else(|e| e.into_inner());
                     for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
                         let at = y * width + x0 as usize;
                         rows[at..at + row.len()].copy_from_slice(row);
                     }
+                    drop(rows);
                     progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                 }
                 Some(stats)
             })
             .collect::<Option<_>>()?;
         let mut stats = RayStats::default();
-        for s in bands {
+        for s in per_worker {
             stats += s;
         }
         Some(RenderOutput {
@@ -508,6 +545,31 @@ mod tests {
         scene.add(Sphere::new(Vec3::new(0.0, 0.0, -5.0), 1.0), red);
         scene.add_light(PointLight::new(Vec3::new(5.0, 5.0, 0.0), Color::ONE));
         scene
+    }
+
+    #[test]
+    fn the_tile_queue_hands_out_every_tile_once_and_workers_steal_halves() {
+        for (tiles, workers) in [(1, 1), (1, 2), (7, 3), (2500, 2), (2500, 5), (10, 16)] {
+            let queue = TileQueue::new(tiles, workers.min(tiles));
+            let mut got = Vec::new();
+            // Worker 0 alone takes its own run, then the back half of the longest left,
+            // and so on until nothing is left, as when the other workers never start.
+            while let Some(i) = queue.take(0) {
+                got.push(i);
+            }
+            got.sort_unstable();
+            assert_eq!(got, (0..tiles).collect::<Vec<_>>(), "{tiles} tiles, {workers} workers");
+        }
+        // Two workers, taking turns: each starts on its own half of the image.
+        let queue = TileQueue::new(10, 2);
+        assert_eq!((queue.take(0), queue.take(1)), (Some(0), Some(5)));
+        // Worker 1 finishes its run; then it steals the back half of worker 0's.
+        for i in 6..10 {
+            assert_eq!(queue.take(1), Some(i));
+        }
+        assert_eq!(queue.take(1), Some(3));
+        assert_eq!((queue.take(0), queue.take(0), queue.take(1), queue.take(0)), (Some(1), Some(2), Some(4), None));
+        assert_eq!(queue.take(1), None);
     }
 
     #[test]
