@@ -378,7 +378,13 @@ impl<'s> Renderer<'s> {
         if culled {
             integrator.shade_traced(&Traced { nodes: found, surfaces, next, lit }, colors, stats);
             stats.primary += camera_rays as u64;
-            average(&colors[..camera_rays], n, pixels);
+            if n == 1 {
+                // Each pixel is its one sample: the camera rays' colours as they are.
+                std::mem::swap(pixels, colors);
+                pixels.truncate(camera_rays);
+            } else {
+                average(&colors[..camera_rays], n, pixels);
+            }
         } else {
             colors.clear();
             colors.extend(found.iter().map(|(ray, _)| integrator.trace_primary(ray, stats)));
