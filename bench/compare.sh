@@ -96,8 +96,8 @@ def whitted(path):
 emb, w = embree("target/embree-1M.txt"), whitted("target/whitted-1M.jsonl")
 emb_cloud, w_cloud = embree("target/embree-cloud.txt"), whitted("target/whitted-cloud.jsonl")
 rows = [
-    ("room 1 spp: Whitted render / POV-Ray trace (target <= 0.1)", w1 / p1, f"{w1:.3f} s / {p1:.3f} s"),
-    ("room AA: Whitted 4 spp / POV-Ray 5 rays (target <= 0.1)", w4 / p5, f"{w4:.3f} s / {p5:.3f} s"),
+    ("room 1 spp: Whitted render / POV-Ray trace (target <= 0.1)", w1 / p1, f"{w1:.4f} s / {p1:.3f} s"),
+    ("room AA: Whitted 4 spp / POV-Ray 5 rays (target <= 0.1)", w4 / p5, f"{w4:.4f} s / {p5:.3f} s"),
 ] + mesh_rows("1M", emb, w) + [
     ("sphere cloud 1M primary Mrays/CPU-s vs Embree (target >= 1.0)",
      w_cloud["primary_mrays_per_cpu_s"] / emb_cloud["primary_rtcIntersect1"],

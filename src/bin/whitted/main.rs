@@ -313,7 +313,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
             out.build_time.as_secs_f64(),
             AccelKind::from(args.accel).name()
         );
-        println!("render time {:.3} s", secs);
+        println!("render time {:.4} s", secs);
         println!("speed       {:.2} Mrays/s", s.total() as f64 / secs / 1e6);
     }
     Ok(())
