@@ -43,7 +43,7 @@ impl Image {
         self.pixels[y as usize * self.width as usize + x as usize] = c;
     }
 
-    /// All pixels, row after row: renderers fill bands of rows in parallel.
+    /// All pixels, row after row: renderers fill tiles of rows in parallel.
     pub fn pixels_mut(&mut self) -> &mut [Color] {
         &mut self.pixels
     }
