@@ -116,7 +116,8 @@ impl<'w, 's> Integrator<'w, 's> {
     pub fn may_light(&self, index: u32) -> bool {
         let scene = self.world.scene();
         let m = scene.material(scene.objects[index as usize].material);
-        !(m.local_share() == 0.0 && !(m.specular > 0.0)) && (m.specular > 0.0 || m.diffuse != 0.0)
+        // A highlight, or an own share with a diffuse term: `local` then looks at them.
+        m.specular > 0.0 || (m.local_share() != 0.0 && m.diffuse != 0.0)
     }
 
     /// Where a hit of `ray` on object `index` at `surface` sends its shadow rays from,
