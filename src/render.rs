@@ -49,8 +49,8 @@ struct TileBuffers {
 /// run of its own and, when that is done, takes the back half (rounded up) of the longest
 /// run left. So the workers finish within a tile of each other (with bands of tiles as
 /// rayon tasks, one sat idle for up to a few bands at the end), and each works in its own
-/// part of the image (taking tiles side by side, two threads wrote into the same rows
-/// and faulted in the same pages, and were slower).
+/// part of the image (taking the next tile in reading order from one counter, two
+/// threads worked side by side in the same rows and were slower: best 30.2 vs 28.7 ms).
 struct TileQueue {
     runs: Mutex<Vec<std::ops::Range<usize>>>,
 }
