@@ -639,9 +639,13 @@ mod tests {
         let mirror = scene.add_material(Material::color(Color::splat(0.4)).reflective(0.8));
         let glass = scene.add_material(Material::color(Color::new(0.2, 0.5, 0.9)).transparent(0.8, 1.5));
         let red = scene.add_material(Material::color(Color::new(0.9, 0.2, 0.1)).reflective(0.2));
-        let plain = scene.add_material(Material::color(Color::splat(0.8)));
+        // A checkered floor: on its black squares `local` looks at no light, although
+        // the tile found the lights there ahead.
+        let squares =
+            Texture::Checker { size: 0.5, offset: Vec3::new(0.0, 0.25, 0.0), colors: [Color::ZERO, Color::splat(0.8)] };
+        let checker = scene.add_material(Material::textured(squares).matte());
         let floor = Quad::new(Vec3::new(-6.0, -1.0, 4.0), Vec3::new(12.0, 0.0, 0.0), Vec3::new(0.0, 0.0, -12.0));
-        scene.add(floor, plain);
+        scene.add(floor, checker);
         scene.add(Quad::new(Vec3::new(-6.0, -1.0, -8.0), Vec3::new(12.0, 0.0, 0.0), Vec3::new(0.0, 7.0, 0.0)), mirror);
         scene.add(Quad::new(Vec3::new(-6.0, -1.0, 7.0), Vec3::new(0.0, 7.0, 0.0), Vec3::new(12.0, 0.0, 0.0)), mirror);
         scene.add(Sphere::new(Vec3::new(-1.5, 0.2, -2.0), 1.2), glass);
