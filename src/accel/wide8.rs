@@ -764,7 +764,8 @@ impl WideNode for Node8 {
 struct WideRay8 {
     org: [__m256; 3],
     inv: [__m256; 3],
-    /// Per axis, the row of `Node8::bounds` the ray enters through, and the one it leaves.
+    /// Per axis, the row of `Node8::bounds` the ray enters through (it leaves through the
+    /// other of the pair, as `enter!` derives).
     near_row: [usize; 3],
 }
 
