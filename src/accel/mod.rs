@@ -782,6 +782,11 @@ impl<'s> World<'s> {
         t_max: [f32; 8],
         live: u32,
     ) -> [f32; 8] {
+        if ids.is_empty() {
+            // Nothing may stand in the way (half of the room's shadow rays): every live
+            // lane sees all of the light, as the tests below would find.
+            return std::array::from_fn(|lane| if live >> lane & 1 != 0 { 1.0 } else { 0.0 });
+        }
         let ray = |lane: usize| Ray {
             origin: Vec3::new(origins[0][lane], origins[1][lane], origins[2][lane]),
             dir: Vec3::new(dirs[0][lane], dirs[1][lane], dirs[2][lane]),

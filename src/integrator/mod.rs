@@ -143,8 +143,6 @@ impl<'w, 's> Integrator<'w, 's> {
                 live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
             }
             let visible = match blockers {
-                // Nothing may stand in the way: every live lane sees all of the light.
-                Some([]) => std::array::from_fn(|lane| if live >> lane & 1 != 0 { 1.0 } else { 0.0 }),
                 Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
                 None => {
                     // The live lanes' rays, side by side, then their answers back in lane.
