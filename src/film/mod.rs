@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 pub struct Image {
     width: u32,
     height: u32,
-    pixels: Vec<Color>,
+    pixels: crate::pages::Zeroed<Color>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -52,7 +52,7 @@ impl Image {
     /// as they were, and the POV-Ray reference does the same (`File_Gamma=1.0`).
     pub fn to_rgb8(&self) -> image::RgbImage {
         let mut out = image::RgbImage::new(self.width, self.height);
-        for (dst, c) in out.pixels_mut().zip(&self.pixels) {
+        for (dst, c) in out.pixels_mut().zip(self.pixels.iter()) {
             let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
             *dst = image::Rgb([q(c.x), q(c.y), q(c.z)]);
         }
