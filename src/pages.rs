@@ -42,8 +42,8 @@ pub fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Zeroed<T> {
     // be advised, which leaves that page on 4 KiB pages: 512 faults at 1.6 to 2.7 µs
     // each, where a whole huge page costs 0.05 to 0.35 ms (measured in C on this
     // project's hosts). So the zeros start at the first huge-page boundary past the
-    // header, the page before holding nothing else: an 800×800 film's first render
-    // took 765 page faults, now 255.
+    // header, the page before holding nothing else: the first render of the 800×800
+    // room in a process took 765 page faults in all, now 255.
     let buf = advised(bytemuck::allocation::zeroed_vec(room_for::<T>(n + HUGE.div_ceil(size))));
     let start = ((buf.as_ptr() as usize).next_multiple_of(HUGE) - buf.as_ptr() as usize).div_ceil(size);
     Zeroed { buf, start, len: n }
