@@ -36,7 +36,7 @@ pub fn on_huge_pages<T: Copy>(v: Vec<T>) -> Vec<T> {
 pub fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Zeroed<T> {
     let size = std::mem::size_of::<T>().max(1);
     if n * size < MIN_BYTES {
-        return Zeroed { buf: bytemuck::allocation::zeroed_vec(n), start: 0, len: n };
+        return Zeroed { buf: bytemuck::allocation::zeroed_vec(n), start: 0 };
     }
     // The allocator writes its header into the mapping's first huge page before it can
     // be advised, which leaves that page on 4 KiB pages: 512 faults at 1.6 to 2.7 µs
@@ -44,36 +44,36 @@ pub fn zeroed<T: bytemuck::Zeroable>(n: usize) -> Zeroed<T> {
     // project's hosts). So the zeros start at the first huge-page boundary past the
     // header, the page before holding nothing else: the first render of the 800×800
     // room in a process took 765 page faults in all, now 255.
-    let buf = advised(bytemuck::allocation::zeroed_vec(room_for::<T>(n + HUGE.div_ceil(size))));
+    let mut buf = advised(bytemuck::allocation::zeroed_vec(room_for::<T>(n + HUGE.div_ceil(size))));
     let start = ((buf.as_ptr() as usize).next_multiple_of(HUGE) - buf.as_ptr() as usize).div_ceil(size);
-    Zeroed { buf, start, len: n }
+    buf.truncate(start + n);
+    Zeroed { buf, start }
 }
 
-/// `len` values from `start` in `buf` ([`zeroed`]): a slice of its memory that may begin
+/// The values of `buf` from `start` on ([`zeroed`]): a slice of its memory that may begin
 /// past its start, so as to begin on a huge page.
 pub struct Zeroed<T> {
     buf: Vec<T>,
     start: usize,
-    len: usize,
 }
 
 impl<T> std::ops::Deref for Zeroed<T> {
     type Target = [T];
     fn deref(&self) -> &[T] {
-        &self.buf[self.start..self.start + self.len]
+        &self.buf[self.start..]
     }
 }
 
 impl<T> std::ops::DerefMut for Zeroed<T> {
     fn deref_mut(&mut self) -> &mut [T] {
-        &mut self.buf[self.start..self.start + self.len]
+        &mut self.buf[self.start..]
     }
 }
 
 /// A copy holds only the values.
 impl<T: Clone> Clone for Zeroed<T> {
     fn clone(&self) -> Self {
-        Zeroed { buf: self.to_vec(), start: 0, len: self.len }
+        Zeroed { buf: self.to_vec(), start: 0 }
     }
 }
 
@@ -96,11 +96,10 @@ pub fn with_capacity<T>(n: usize) -> Vec<T> {
 }
 
 /// Room for `n` values, rounded up for a big array to fill whole huge pages with its
-/// allocator's header. Otherwise its mapping starts anywhere, and the parts before the
-/// first huge-page boundary and after the last stay on 4 KiB pages: for an 800×800
-/// film, about 900 page faults at 2 µs each, where a huge page costs about 0.25 ms.
-/// For films only: the last huge page is then backed whole, up to 2 MiB more memory,
-/// which for an acceleration structure would count against its bytes per primitive.
+/// allocator's header, so that its mapping also ends on a huge-page boundary: otherwise
+/// the part after the last one stays on 4 KiB pages, up to 511 page faults. For films
+/// only: the last huge page is then backed whole, up to 2 MiB more memory, which for an
+/// acceleration structure would count against its bytes per primitive.
 fn room_for<T>(n: usize) -> usize {
     let size = std::mem::size_of::<T>().max(1);
     if n * size < MIN_BYTES {
@@ -157,7 +156,7 @@ mod tests {
         }
         let film: Zeroed<[f32; 3]> = zeroed(800 * 800);
         assert_eq!(film.len(), 800 * 800);
-        assert!(film.buf.len() == room_for::<[f32; 3]>(800 * 800 + HUGE / 12 + 1) && film.start <= HUGE / 12 + 1);
+        assert!(film.buf.capacity() == room_for::<[f32; 3]>(800 * 800 + HUGE / 12 + 1) && film.start <= HUGE / 12 + 1);
         assert!((film.as_ptr() as usize) % HUGE < 12, "starts at a huge page");
     }
 
