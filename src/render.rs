@@ -2,11 +2,11 @@
 //! film. Every pixel depends only on the scene, the settings and its own coordinates, so
 //! the image is the same for any thread count.
 
-use crate::accel::{AccelKind, World};
+use crate::accel::{AccelKind, Best8, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::geometry::Hit;
-use crate::integrator::{Integrator, LightFrames, Lit, NONE, PackedSurface, RayStats, Traced};
+use crate::integrator::{Integrator, LightFrames, Lit, NONE, PackedSurface, QuadBlock, RayStats, Traced};
 use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
@@ -43,6 +43,12 @@ struct TileBuffers {
     /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
     /// the node sending it, the ray.
     sent: Vec<((u32, u32), u32, Ray)>,
+    /// Camera rays shaded in lanes, eight at a time ([`QuadBlock`]), not node by node.
+    blocks: Vec<QuadBlock>,
+    /// Per object, a box round the hit points of `blocks`.
+    block_hits: Vec<(u32, Aabb)>,
+    /// The colours of `blocks`, lane by lane.
+    block_colors: Vec<[[f32; 8]; 3]>,
 }
 
 /// The tiles of an image, in reading order, shared out among workers: each starts on a
@@ -85,6 +91,34 @@ fn average(colors: &[Color], n: usize, pixels: &mut Vec<Color>) {
     pixels.extend(colors.chunks(n).map(|samples| samples.iter().fold(Color::ZERO, |sum, &c| sum + c) / n as f32));
 }
 
+/// Offers eight rays, nodes `first..first + 8`, and their hits to be shaded in lanes
+/// ([`Integrator::quad_block`]). A block taken goes to `blocks`, and the box round its
+/// hit points to `block_hits`.
+#[inline(always)]
+fn take_block(
+    integrator: &Integrator,
+    shaded: &[bool],
+    (blocks, block_hits): (&mut Vec<QuadBlock>, &mut Vec<(u32, Aabb)>),
+    first: usize,
+    rays: &[(Ray, Option<(Hit, u32)>)],
+    hits: &Best8,
+) -> bool {
+    let Some((block, bounds)) = integrator.quad_block(first as u32, rays, hits, shaded) else {
+        return false;
+    };
+    merge_box(block_hits, (hits.index[0], bounds));
+    blocks.push(block);
+    true
+}
+
+/// `run`, a box round hits on one object, merged into that object's box in `hits`.
+fn merge_box(hits: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)) {
+    match hits.iter_mut().find(|(o, _)| *o == i) {
+        Some((_, b)) => *b = b.union(run),
+        None => hits.push((i, run)),
+    }
+}
+
 /// The surfaces hit by the rays of `buf.found` from node `from` on, into `buf.surfaces`,
 /// and, per object hit, a box round its hit points, into `buf.hits`.
 #[inline(never)]
@@ -93,10 +127,6 @@ fn surfaces_hit(integrator: &Integrator, buf: &mut TileBuffers, from: usize) {
     hits.clear();
     surfaces.resize(found.len(), PackedSurface::default());
     // Hits come in runs on one object: each run's box is grown on its own, then merged.
-    let merge = |hits: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)| match hits.iter_mut().find(|(o, _)| *o == i) {
-        Some((_, b)) => *b = b.union(run),
-        None => hits.push((i, run)),
-    };
     let mut run: Option<(u32, Aabb)> = None;
     for (k, (ray, hit)) in found.iter().enumerate().skip(from) {
         if let Some((h, i)) = hit {
@@ -106,14 +136,14 @@ fn surfaces_hit(integrator: &Integrator, buf: &mut TileBuffers, from: usize) {
                 Some((o, b)) if o == i => *b = b.grow(p),
                 _ => {
                     if let Some(done) = run.replace((*i, Aabb::EMPTY.grow(p))) {
-                        merge(hits, done);
+                        merge_box(hits, done);
                     }
                 }
             }
         }
     }
     if let Some(done) = run {
-        merge(hits, done);
+        merge_box(hits, done);
     }
 }
 
@@ -296,6 +326,7 @@ impl<'s> Renderer<'s> {
         let mut image = Image::new(self.width, self.height);
         let workers = rayon::current_num_threads().min(total);
         let queue = TileQueue::new(total, workers);
+        let shaded: Vec<bool> = (0..self.scene.objects.len() as u32).map(|i| integrator.lane_shaded(i)).collect();
         // A tile writes its pixels into its band of TILE rows, locked only for the copy;
         // a worker keeps its buffers for all the tiles it takes.
         let bands: Vec<Mutex<&mut [Color]>> =
@@ -311,7 +342,7 @@ impl<'s> Renderer<'s> {
                     }
                     let (x0, y0) = ((i % tiles_x) as u32 * TILE, (i / tiles_x) as u32 * TILE);
                     let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
-                    self.render_tile(world, &rig, &integrator, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    self.render_tile(world, &rig, &integrator, &shaded, (x0, y0, x1, y1), &mut tile, &mut stats);
                     let mut rows = bands[i / tiles_x].lock().unwrap_or_else(|e| e.into_inner());
                     for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
                         let at = y * width + x0 as usize;
@@ -338,17 +369,20 @@ impl<'s> Renderer<'s> {
     }
 
     /// Traces the pixels of one tile, `(x0, y0)` to `(x1, y1)` exclusive, into
-    /// `buf.pixels` row by row.
+    /// `buf.pixels` row by row. Blocks of eight camera rays on one object that `shaded`
+    /// marks ([`Integrator::lane_shaded`]) are shaded in lanes.
+    #[allow(clippy::too_many_arguments)]
     fn render_tile(
         &self,
         world: &World,
         rig: &CameraRig,
         integrator: &Integrator,
+        shaded: &[bool],
         (x0, y0, x1, y1): (u32, u32, u32, u32),
         buf: &mut TileBuffers,
         stats: &mut RayStats,
     ) {
-        let TileBuffers { pixels, samples, points, found, seen, .. } = buf;
+        let TileBuffers { pixels, samples, points, found, seen, blocks, block_hits, .. } = buf;
         pixels.clear();
         found.clear();
         points.clear();
@@ -370,13 +404,18 @@ impl<'s> Renderer<'s> {
         let culled = world.seen_from(apex, edges, seen);
         let camera_rays = found.len();
         if culled {
-            world.closest_among_each(seen, found);
-            self.trace_ahead(world, integrator, buf, stats);
+            blocks.clear();
+            block_hits.clear();
+            world.closest_among_each_or(seen, found, |first, rays, hits| {
+                take_block(integrator, shaded, (blocks, block_hits), first, rays, hits)
+            });
+            self.trace_ahead(world, integrator, shaded, buf, stats);
         }
-        let TileBuffers { pixels, samples, found, next, surfaces, lit, colors, .. } = buf;
+        let TileBuffers { pixels, samples, found, next, surfaces, lit, colors, blocks, block_colors, .. } = buf;
         let n = samples.len();
         if culled {
-            integrator.shade_traced(&Traced { nodes: found, surfaces, next, lit }, colors, stats);
+            let traced = Traced { nodes: found, surfaces, next, lit, blocks, block_colors };
+            integrator.shade_traced(&traced, colors, stats);
             stats.primary += camera_rays as u64;
             if n == 1 {
                 // Each pixel is its one sample: the camera rays' colours as they are.
@@ -396,7 +435,14 @@ impl<'s> Renderer<'s> {
     /// the surfaces hit, the objects that may shadow them, the lights as they see them
     /// ([`Renderer::look_at_lights`]), and the rays they send on with what those hit
     /// ([`Renderer::send_on`]), until no rays are sent or the depth limit is reached.
-    fn trace_ahead(&self, world: &World, integrator: &Integrator, buf: &mut TileBuffers, stats: &mut RayStats) {
+    fn trace_ahead(
+        &self,
+        world: &World,
+        integrator: &Integrator,
+        shaded: &[bool],
+        buf: &mut TileBuffers,
+        stats: &mut RayStats,
+    ) {
         buf.next.clear();
         buf.next.resize(buf.found.len(), [NONE; 2]);
         buf.surfaces.clear();
@@ -404,21 +450,29 @@ impl<'s> Renderer<'s> {
         // One-sided shading may send a shadow ray from a surface's back through the
         // surface itself, which the culling assumes it does not.
         let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
+        buf.block_colors.clear();
         let (mut level, mut depth) = (0..buf.found.len(), 1u32);
         loop {
             surfaces_hit(integrator, buf, level.start);
-            let TileBuffers { hits, blockers, .. } = &mut *buf;
+            let TileBuffers { hits, blockers, blocks, block_hits, block_colors, .. } = &mut *buf;
+            // The level's hits shaded in lanes may be shadowed by what the others may.
+            for &run in &*block_hits {
+                merge_box(hits, run);
+            }
+            block_hits.clear();
             // Kept from tile to tile, to allocate nothing.
             blockers.resize_with(lights.len(), || None);
             for (b, l) in blockers.iter_mut().zip(lights) {
                 let mut few = b.take().unwrap_or_default();
                 *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
             }
+            // The level's blocks: those after the ones shaded already.
+            integrator.shade_blocks(&blocks[block_colors.len()..], blockers, block_colors, stats);
             self.look_at_lights(integrator, buf, level.clone());
             if depth >= self.max_depth {
                 break;
             }
-            match self.send_on(world, integrator, buf, level, depth, stats) {
+            match self.send_on(world, integrator, shaded, buf, level, depth, stats) {
                 Some(next_level) => (level, depth) = (next_level, depth + 1),
                 None => break,
             }
@@ -448,19 +502,22 @@ impl<'s> Renderer<'s> {
     /// The rays the hits of nodes `level` (at `depth`) send on, appended to `buf.found`
     /// grouped by the object they leave and how (reflected or transmitted), linked by
     /// `buf.next` and counted in `stats`, with what they hit: a group of four or more
-    /// tested only against what it may meet ([`World::seen_along`]), eight at a time.
+    /// tested only against what it may meet ([`World::seen_along`]), eight at a time,
+    /// blocks of eight on one object that `shaded` marks taken to be shaded in lanes.
     /// Returns the new nodes, if any.
     #[inline(never)]
+    #[allow(clippy::too_many_arguments)]
     fn send_on(
         &self,
         world: &World,
         integrator: &Integrator,
+        shaded: &[bool],
         buf: &mut TileBuffers,
         level: std::ops::Range<usize>,
         depth: u32,
         stats: &mut RayStats,
     ) -> Option<std::ops::Range<usize>> {
-        let TileBuffers { found, next, surfaces, seen, sent, .. } = buf;
+        let TileBuffers { found, next, surfaces, seen, sent, blocks, block_hits, .. } = buf;
         sent.clear();
         for k in level {
             if let (ray, Some((_, i))) = &found[k]
@@ -486,10 +543,12 @@ impl<'s> Renderer<'s> {
         }
         let mut at = start;
         for group in sent.chunk_by(|a, b| a.0 == b.0) {
-            let rays = &mut found[at..at + group.len()];
+            let (first, rays) = (at, &mut found[at..at + group.len()]);
             at += group.len();
             if rays.len() >= 4 && world.seen_along(rays, seen) {
-                world.closest_among_each(seen, rays);
+                world.closest_among_each_or(seen, rays, |k, rays, hits| {
+                    take_block(integrator, shaded, (blocks, block_hits), first + k, rays, hits)
+                });
             } else {
                 for (ray, hit) in rays {
                     *hit = world.closest(ray, 0.0, f32::INFINITY);
@@ -686,6 +745,60 @@ mod tests {
         let world = World::new(&scene, AccelKind::Bvh);
         let (apex, edges) = scene.camera.rig().unwrap().cone(32.0, 32.0, 48.0, 48.0);
         assert!(world.seen_from(apex, edges, &mut Vec::new()));
+    }
+
+    /// A room of matte quads of every solid-space texture, seen straight and in a
+    /// mirror, shadowed through glass, under two lights: blocks of eight hits on one
+    /// quad are shaded in lanes, and must shade what tracing ray by ray does.
+    #[test]
+    fn blocks_shaded_in_lanes_match_tracing_ray_by_ray() {
+        let mut scene =
+            Scene::new(Camera::new(Vec3::new(0.3, 0.5, 4.0), Vec3::new(0.0, 0.0, -3.0), Vec3::Y, 70.0, 64, 48));
+        let stripes = Texture::Stripes {
+            axis: Vec3::Z,
+            width: 0.7,
+            colors: [Color::new(1.0, 1.0, 0.5), Color::new(0.0, 1.0, 0.0)],
+        };
+        let checker =
+            Texture::Checker { size: 0.5, offset: Vec3::new(0.0, 0.25, 0.0), colors: [Color::ZERO, Color::splat(0.9)] };
+        let floor = scene.add_material(Material::textured(stripes).matte());
+        let back = scene.add_material(Material::textured(checker).matte());
+        let side = scene.add_material(Material::color(Color::new(0.0, 0.5, 1.0)).matte());
+        let mirror = scene.add_material(Material::color(Color::splat(0.5)).reflective(1.0).matte());
+        let glass = scene.add_material(Material::color(Color::new(1.0, 0.2, 0.2)).transparent(0.7, 1.0));
+        let quad = |c: [f32; 3], u: [f32; 3], v: [f32; 3]| Quad::new(Vec3::from(c), Vec3::from(u), Vec3::from(v));
+        scene.add(quad([-4.0, -1.5, 5.0], [8.0, 0.0, 0.0], [0.0, 0.0, -11.0]), floor);
+        scene.add(quad([-4.0, -1.5, -6.0], [8.0, 0.0, 0.0], [0.0, 6.0, 0.0]), back);
+        scene.add(quad([-4.0, -1.5, -6.0], [0.0, 6.0, 0.0], [0.0, 0.0, 11.0]), side);
+        scene.add(quad([4.0, -1.5, -6.0], [0.0, 0.0, 11.0], [0.0, 6.0, 0.0]), mirror);
+        scene.add(Sphere::new(Vec3::new(-0.5, 0.0, -2.5), 1.0), glass);
+        scene.add_light(PointLight::new(Vec3::new(1.0, 3.5, 0.0), Color::splat(0.7)));
+        scene.add_light(PointLight::new(Vec3::new(-3.0, 2.0, 2.0), Color::new(0.3, 0.3, 0.2)));
+        let render = |accel| Renderer::new(&scene).unwrap().threads(2).accel(accel).render_with_progress(&|_, _| {});
+        let (lanes, by_ray) = (render(AccelKind::Bvh), render(AccelKind::None));
+        assert_eq!(lanes.stats, by_ray.stats);
+        assert!(lanes.image == by_ray.image);
+        // Where the processor has AVX2, a tile of floor takes its camera rays as blocks.
+        let world = World::new(&scene, AccelKind::Bvh);
+        let integrator = Integrator::new(&world, scene.settings.max_depth);
+        let shaded: Vec<bool> = (0..scene.objects.len() as u32).map(|i| integrator.lane_shaded(i)).collect();
+        assert_eq!(shaded, [true, true, true, false, false]);
+        let rig = scene.camera.rig().unwrap();
+        let (apex, edges) = rig.cone(16.0, 32.0, 32.0, 48.0);
+        let mut seen = Vec::new();
+        assert!(world.seen_from(apex, edges, &mut seen));
+        let mut found = Vec::new();
+        let points: Vec<Vec2> =
+            (32..48).flat_map(|y| (16..32).map(move |x| Vec2::new(x as f32 + 0.5, y as f32 + 0.5))).collect();
+        rig.rays(&points, |ray| found.push((ray, None)));
+        let (mut blocks, mut boxes) = (Vec::new(), Vec::new());
+        world.closest_among_each_or(&seen, &mut found, |first, rays, hits| {
+            take_block(&integrator, &shaded, (&mut blocks, &mut boxes), first, rays, hits)
+        });
+        if std::is_x86_feature_detected!("avx2") {
+            assert!(blocks.len() >= 16, "{} blocks", blocks.len());
+        }
+        assert_eq!(found.iter().filter(|(_, hit)| hit.is_none()).count(), 8 * blocks.len());
     }
 
     #[test]

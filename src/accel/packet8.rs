@@ -21,11 +21,17 @@ pub struct Rays8 {
 /// (`u32::MAX`: none yet). Its distance is the exclusive bound for the next object.
 pub struct Best8 {
     pub t: [f32; 8],
-    u: [f32; 8],
-    v: [f32; 8],
+    pub u: [f32; 8],
+    pub v: [f32; 8],
     part: [u8; 8],
     prim: [u32; 8],
     pub index: [u32; 8],
+}
+
+impl Default for Best8 {
+    fn default() -> Self {
+        Best8::new()
+    }
 }
 
 impl Best8 {

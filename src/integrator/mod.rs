@@ -2,7 +2,10 @@
 //! pass through transparent objects, then recursion for mirror reflection and for
 //! transmission (straight through, or bent by Snell's law, or totally reflected).
 
+mod blocks;
 mod stats;
+
+pub use blocks::QuadBlock;
 
 pub use stats::RayStats;
 
@@ -75,6 +78,11 @@ impl<'w, 's> Integrator<'w, 's> {
                 })
             })
         }));
+        for (block, rows) in traced.blocks.iter().zip(traced.block_colors) {
+            for (lane, c) in colors[block.node()..block.node() + 8].iter_mut().enumerate() {
+                *c = Color::new(rows[0][lane], rows[1][lane], rows[2][lane]);
+            }
+        }
         for k in (0..colors.len()).rev() {
             let [r, t] = traced.next[k];
             if r == NONE && t == NONE {
@@ -142,28 +150,36 @@ impl<'w, 's> Integrator<'w, 's> {
             for lane in 0..nodes.len() {
                 live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
             }
-            let visible = match blockers {
-                Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
-                None => {
-                    // The live lanes' rays, side by side, then their answers back in lane.
-                    let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
-                    for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
-                        let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
-                        (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
-                    }
-                    let mut light = [0.0; 8];
-                    self.world.transmittance_each(&rays[..n], &mut light[..n]);
-                    let mut visible = [0.0; 8];
-                    for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
-                        visible[lane] = light;
-                    }
-                    visible
-                }
-            };
+            let visible = self.visible_lanes(blockers, from, &seen, live);
             // Both paths leave the lanes facing away at 0.
             for (lane, &k) in nodes.iter().enumerate() {
                 let (l, n_dot_l, visible) = (lane_of(&seen.l, lane), seen.n_dot_l[lane], visible[lane]);
                 lit[k as usize * lights + i] = Lit { l, n_dot_l, visible };
+            }
+        }
+    }
+
+    /// What the shadow rays from eight points `from` towards a light (`seen`) let
+    /// through, in the lanes `live` (0 in the others): tested together against objects
+    /// `blockers` only where given ([`World::may_shadow`]), else against the whole world.
+    #[inline(always)]
+    fn visible_lanes(&self, blockers: Option<&[u32]>, from: &[[f32; 8]; 3], seen: &Towards8, live: u32) -> [f32; 8] {
+        match blockers {
+            Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
+            None => {
+                // The live lanes' rays, side by side, then their answers back in lane.
+                let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
+                for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                    let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
+                    (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
+                }
+                let mut light = [0.0; 8];
+                self.world.transmittance_each(&rays[..n], &mut light[..n]);
+                let mut visible = [0.0; 8];
+                for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
+                    visible[lane] = light;
+                }
+                visible
             }
         }
     }
@@ -309,6 +325,10 @@ pub struct Traced<'a> {
     /// Per node and light (`k * lights + i`), the light as its hit sees it, where
     /// [`Integrator::may_light`]; anything elsewhere.
     pub lit: &'a [Lit],
+    /// Blocks of eight nodes shaded in lanes (their nodes hold no hit), and their
+    /// colours ([`Integrator::shade_blocks`]).
+    pub blocks: &'a [QuadBlock],
+    pub block_colors: &'a [[[f32; 8]; 3]],
 }
 
 /// A [`Surface`] as two 4-lane vectors, so that it is stored whole from registers: a
