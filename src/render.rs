@@ -106,13 +106,19 @@ fn take_block(
     let Some((block, bounds)) = integrator.quad_block(first as u32, rays, hits, shaded) else {
         return false;
     };
-    merge_box(block_hits, (hits.index[0], bounds));
+    merge_box(block_hits, (block.object(), bounds));
     blocks.push(block);
     true
 }
 
 /// `run`, a box round hits on one object, merged into that object's box in `hits`.
 fn merge_box(hits: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)) {
+    if let Some((o, b)) = hits.last_mut()
+        && *o == i
+    {
+        *b = b.union(run);
+        return;
+    }
     match hits.iter_mut().find(|(o, _)| *o == i) {
         Some((_, b)) => *b = b.union(run),
         None => hits.push((i, run)),

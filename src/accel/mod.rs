@@ -477,6 +477,11 @@ impl<'s> World<'s> {
         self.kind
     }
 
+    /// Whether the processor has AVX2 (the eight-lane paths run only then).
+    pub fn avx2(&self) -> bool {
+        self.avx2
+    }
+
     /// Time spent building the acceleration structures.
     pub fn build_time(&self) -> Duration {
         self.build_time
@@ -842,9 +847,8 @@ impl<'s> World<'s> {
                     blocked |= (self.blocks(i as usize, &ray(lane), t_max[lane]) as u32) << lane;
                 }
             }
-            for lane in 0..8 {
-                blocked |= ((best.index[lane] == i) as u32) << lane;
-            }
+            // Each object has a fresh `best`: the lanes it holds are those it blocks.
+            blocked |= best.taken_by(i);
             while blocked != 0 {
                 let lane = blocked.trailing_zeros() as usize;
                 blocked &= blocked - 1;

@@ -26,6 +26,10 @@ pub struct Best8 {
     part: [u8; 8],
     prim: [u32; 8],
     pub index: [u32; 8],
+    /// The object that took lanes last, and the lanes that hold it: [`Best8::one_object`]
+    /// without reading `index` back whole, just after it was written lane by lane.
+    owner: u32,
+    owned: u32,
 }
 
 impl Default for Best8 {
@@ -36,7 +40,9 @@ impl Default for Best8 {
 
 impl Best8 {
     pub fn new() -> Self {
-        Best8 { t: [f32::INFINITY; 8], u: [0.0; 8], v: [0.0; 8], part: [0; 8], prim: [0; 8], index: [u32::MAX; 8] }
+        let none = u32::MAX;
+        let (t, u, v) = ([f32::INFINITY; 8], [0.0; 8], [0.0; 8]);
+        Best8 { t, u, v, part: [0; 8], prim: [0; 8], index: [none; 8], owner: none, owned: 0 }
     }
 
     /// No hit yet, each lane's bound from `t`.
@@ -48,6 +54,20 @@ impl Best8 {
         (self.t[lane], self.u[lane], self.v[lane], self.part[lane], self.prim[lane]) =
             (h.t, h.uv.x, h.uv.y, h.part, h.prim);
         self.index[lane] = index;
+        // Objects are tested one after another, each once: lanes taken by one before
+        // this one hold other objects.
+        self.owned = if index == self.owner { self.owned | 1 << lane } else { 1 << lane };
+        self.owner = index;
+    }
+
+    /// The object all eight lanes hit, if one is.
+    pub fn one_object(&self) -> Option<u32> {
+        (self.owned == 0xff).then_some(self.owner)
+    }
+
+    /// The lanes that hold object `index`, if it was the last one to take any.
+    pub fn taken_by(&self, index: u32) -> u32 {
+        if self.owner == index { self.owned } else { 0 }
     }
 
     pub fn get(&self, lane: usize) -> (Hit, u32) {

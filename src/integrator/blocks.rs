@@ -11,7 +11,7 @@
 use super::{Integrator, RayStats, towards_lanes};
 use crate::accel::Best8;
 use crate::geometry::Shape;
-use crate::math::{Aabb, Color, Ray, Vec3};
+use crate::math::{Aabb, Ray, Vec3};
 use crate::texture::Texture;
 
 /// Eight hits on one quad, nodes `node..node + 8` of a tile, ready to be lit: where
@@ -32,47 +32,67 @@ impl QuadBlock {
     pub fn node(&self) -> usize {
         self.node as usize
     }
+
+    /// The object its eight hits lie on.
+    pub fn object(&self) -> u32 {
+        self.object
+    }
 }
 
-/// A row of eight: lane by lane, `f(lane)`.
+/// `parity` of the crate's textures for eight coordinates, as a bit mask, on i32: the
+/// same as the scalar one (on i64) where every |t| < 2³¹; `None` elsewhere or for NaN.
 #[inline(always)]
-fn lanes(f: impl FnMut(usize) -> f32) -> [f32; 8] {
-    std::array::from_fn(f)
+fn odd(t: &[f32; 8]) -> Option<u32> {
+    let mut fits = true;
+    let mut odd = 0u32;
+    for (lane, &t) in t.iter().enumerate() {
+        fits &= t.abs() < 2_147_483_648.0;
+        let i = t as i32;
+        let floor = if (i as f32) > t { i.wrapping_sub(1) } else { i };
+        odd |= ((floor & 1) as u32) << lane;
+    }
+    fits.then_some(odd)
 }
 
 /// The texels of a solid-space texture at eight points, as [`Texture::color`] finds
-/// them; `None` for image textures, or where a pattern coordinate is too large for
-/// the 32-bit floor taken here (the scalar one is 64-bit).
+/// them, into `base`; `None` for image textures, or where a pattern coordinate is too
+/// large for the 32-bit floor taken here ([`odd`]).
 #[inline(always)]
-fn texels(texture: &Texture, p: &[[f32; 8]; 3]) -> Option<[[f32; 8]; 3]> {
-    let pick = |odd: [bool; 8], colors: &[Color; 2]| {
-        std::array::from_fn(|c| lanes(|lane| if odd[lane] { colors[1][c] } else { colors[0][c] }))
-    };
-    // `parity` of the crate's textures, on i32: the same for |t| < 2³¹, false for NaN.
-    let fits = |t: &[f32; 8]| t.iter().all(|t| t.abs() < 2_147_483_648.0);
-    let odd = |t: [f32; 8]| -> [bool; 8] {
-        std::array::from_fn(|lane| {
-            let i = t[lane] as i32;
-            let floor = if (i as f32) > t[lane] { i.wrapping_sub(1) } else { i };
-            floor & 1 != 0
-        })
-    };
-    match texture {
-        Texture::Solid(c) => Some(std::array::from_fn(|k| [c[k]; 8])),
-        Texture::Stripes { axis, width, colors } => {
-            let t = lanes(|lane| ((p[0][lane] * axis.x) + (p[1][lane] * axis.y) + (p[2][lane] * axis.z)) / *width);
-            fits(&t).then(|| pick(odd(t), colors))
-        }
-        Texture::Checker { size, offset, colors } => {
-            let q: [[f32; 8]; 3] = std::array::from_fn(|k| lanes(|lane| (p[k][lane] + offset[k]) / *size));
-            if !q.iter().all(fits) {
-                return None;
+fn texels(texture: &Texture, p: &[[f32; 8]; 3], base: &mut [[f32; 8]; 3]) -> Option<()> {
+    let odd = match texture {
+        Texture::Solid(c) => {
+            for (row, c) in base.iter_mut().zip(c.to_array()) {
+                *row = [c; 8];
             }
-            let [x, y, z] = q.map(odd);
-            Some(pick(std::array::from_fn(|lane| x[lane] ^ y[lane] ^ z[lane]), colors))
+            return Some(());
         }
-        Texture::Image { .. } => None,
+        Texture::Stripes { axis, width, .. } => {
+            let mut t = [0.0; 8];
+            for (lane, t) in t.iter_mut().enumerate() {
+                *t = ((p[0][lane] * axis.x) + (p[1][lane] * axis.y) + (p[2][lane] * axis.z)) / *width;
+            }
+            odd(&t)?
+        }
+        Texture::Checker { size, offset, .. } => {
+            let mut odd_all = 0;
+            for (row, offset) in p.iter().zip(offset.to_array()) {
+                let mut q = [0.0; 8];
+                for (q, p) in q.iter_mut().zip(row) {
+                    *q = (p + offset) / *size;
+                }
+                odd_all ^= odd(&q)?;
+            }
+            odd_all
+        }
+        Texture::Image { .. } => return None,
+    };
+    let (Texture::Stripes { colors, .. } | Texture::Checker { colors, .. }) = texture else { return None };
+    for (k, row) in base.iter_mut().enumerate() {
+        for (lane, x) in row.iter_mut().enumerate() {
+            *x = if odd >> lane & 1 != 0 { colors[1][k] } else { colors[0][k] };
+        }
     }
+    Some(())
 }
 
 impl Integrator<'_, '_> {
@@ -96,6 +116,7 @@ impl Integrator<'_, '_> {
     /// `hits` all lie on one object that `shaded` marks ([`Integrator::lane_shaded`]),
     /// with the box round their hit points `ray.at(t)` (as the per-node path boxes them).
     #[inline(always)]
+    #[allow(clippy::needless_range_loop)] // each lane reads and writes several rows
     pub fn quad_block<T>(
         &self,
         node: u32,
@@ -103,47 +124,81 @@ impl Integrator<'_, '_> {
         hits: &Best8,
         shaded: &[bool],
     ) -> Option<(QuadBlock, Aabb)> {
-        let object = hits.index[0];
-        if rays.len() != 8 || hits.index.iter().any(|&i| i != object) || !shaded.get(object as usize).copied()? {
+        let object = hits.one_object()?;
+        if rays.len() != 8 || !shaded.get(object as usize).copied()? {
             return None;
         }
         let scene = self.world.scene();
         let Shape::Quad(quad) = &scene.objects[object as usize].shape else { return None };
         let material = scene.material(scene.objects[object as usize].material);
-        let (c, eu, ev) = (quad.corner, quad.edge_u, quad.edge_v);
-        let n = quad.normal();
-        let (o, d): ([[f32; 8]; 3], [[f32; 8]; 3]) = (
-            std::array::from_fn(|k| lanes(|lane| rays[lane].0.origin[k])),
-            std::array::from_fn(|k| lanes(|lane| rays[lane].0.dir[k])),
-        );
+        let (c, eu, ev, n) = (quad.corner, quad.edge_u, quad.edge_v, quad.normal());
+        let mut b = QuadBlock { node, object, from: [[0.0; 8]; 3], normal: [[0.0; 8]; 3], base: [[0.0; 8]; 3], lit: 0 };
         // `Quad::surface`: `corner + u·edge_u + v·edge_v`.
-        let point: [[f32; 8]; 3] =
-            std::array::from_fn(|k| lanes(|lane| (c[k] + hits.u[lane] * eu[k]) + hits.v[lane] * ev[k]));
-        let base = texels(&material.texture, &point)?;
-        // `leaving`: the normal on the ray's side, and the point just off the surface.
-        let away: [bool; 8] =
-            std::array::from_fn(|lane| ((d[0][lane] * n.x) + (d[1][lane] * n.y) + (d[2][lane] * n.z)) < 0.0);
-        let normal: [[f32; 8]; 3] = std::array::from_fn(|k| lanes(|lane| if away[lane] { n[k] } else { -n[k] }));
-        let offset = lanes(|lane| {
-            let max = |a: f32, b: f32| if a > b { a } else { b };
-            1e-4 * (1.0 + max(max(point[0][lane].abs(), point[1][lane].abs()), point[2][lane].abs()))
-        });
-        let from = std::array::from_fn(|k| lanes(|lane| point[k][lane] + offset[lane] * normal[k][lane]));
-        let lit = (0..8).fold(0u32, |lit, lane| lit | ((base.iter().any(|row| row[lane] != 0.0) as u32) << lane));
-        // `Ray::at`: `origin + t·dir`.
-        let at: [[f32; 8]; 3] = std::array::from_fn(|k| lanes(|lane| o[k][lane] + hits.t[lane] * d[k][lane]));
-        let (lo, hi) = (
-            at.map(|r| r.into_iter().fold(f32::INFINITY, f32::min)),
-            at.map(|r| r.into_iter().fold(f32::NEG_INFINITY, f32::max)),
-        );
-        let bounds = Aabb { min: Vec3::from(lo), max: Vec3::from(hi) };
-        Some((QuadBlock { node, object, from, normal, base, lit }, bounds))
+        let mut point = [[0.0f32; 8]; 3];
+        for (k, row) in point.iter_mut().enumerate() {
+            for (lane, x) in row.iter_mut().enumerate() {
+                *x = (c[k] + hits.u[lane] * eu[k]) + hits.v[lane] * ev[k];
+            }
+        }
+        texels(&material.texture, &point, &mut b.base)?;
+        // `Ray::at`: `origin + t·dir`, for the box.
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for (lane, (ray, _)) in rays.iter().enumerate() {
+            let p = ray.origin + hits.t[lane] * ray.dir;
+            (lo, hi) = (lo.min(p), hi.max(p));
+            // `leaving`: the normal on the ray's side, and the point just off the surface.
+            let side = if ray.dir.dot(n) < 0.0 { n } else { -n };
+            for k in 0..3 {
+                b.normal[k][lane] = side[k];
+            }
+        }
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        for lane in 0..8 {
+            let offset = 1e-4 * (1.0 + max(max(point[0][lane].abs(), point[1][lane].abs()), point[2][lane].abs()));
+            for k in 0..3 {
+                b.from[k][lane] = point[k][lane] + offset * b.normal[k][lane];
+            }
+            let black = b.base[0][lane] == 0.0 && b.base[1][lane] == 0.0 && b.base[2][lane] == 0.0;
+            b.lit |= (!black as u32) << lane;
+        }
+        let bounds = Aabb { min: lo, max: hi };
+        Some((b, bounds))
     }
 
     /// The colours of `blocks`, lit by every light, eight to a block, appended to
     /// `colors`: the shadow rays to light `i` tested against `blockers[i]` where given
     /// (as in [`Integrator::look_at_light`]), and counted in `stats`.
     pub fn shade_blocks(
+        &self,
+        blocks: &[QuadBlock],
+        blockers: &[Option<Vec<u32>>],
+        colors: &mut Vec<[[f32; 8]; 3]>,
+        stats: &mut RayStats,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if self.world.avx2() {
+            // SAFETY: `avx2` is set only where the processor has AVX2.
+            #[allow(unsafe_code)]
+            return unsafe { self.shade_blocks_avx2(blocks, blockers, colors, stats) };
+        }
+        self.shade_blocks_in(blocks, blockers, colors, stats)
+    }
+
+    /// [`Integrator::shade_blocks`] compiled for AVX2: eight lanes to a vector.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn shade_blocks_avx2(
+        &self,
+        blocks: &[QuadBlock],
+        blockers: &[Option<Vec<u32>>],
+        colors: &mut Vec<[[f32; 8]; 3]>,
+        stats: &mut RayStats,
+    ) {
+        self.shade_blocks_in(blocks, blockers, colors, stats)
+    }
+
+    #[inline(always)]
+    fn shade_blocks_in(
         &self,
         blocks: &[QuadBlock],
         blockers: &[Option<Vec<u32>>],
@@ -174,9 +229,13 @@ impl Integrator<'_, '_> {
                 }
             }
             let share = material.local_share();
-            colors.push(std::array::from_fn(|k| {
-                lanes(|lane| share * ((self.ambient * b.base[k][lane]) + diffuse[k][lane]) + 0.0)
-            }));
+            for (sum, base) in diffuse.iter_mut().zip(&b.base) {
+                for (x, base) in sum.iter_mut().zip(base) {
+                    // `local`'s last step, whose highlight here is +0.
+                    *x = share * ((self.ambient * base) + *x) + 0.0;
+                }
+            }
+            colors.push(diffuse);
         }
     }
 }
@@ -184,7 +243,7 @@ impl Integrator<'_, '_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec2;
+    use crate::math::{Color, Vec2};
 
     #[test]
     fn texels_in_lanes_are_the_textures_colours() {
@@ -206,7 +265,8 @@ mod tests {
                 }
             }
             for texture in &textures {
-                let got = texels(texture, &p).expect("points in range");
+                let mut got = [[0.0; 8]; 3];
+                texels(texture, &p, &mut got).expect("points in range");
                 for lane in 0..8 {
                     let point = Vec3::new(p[0][lane], p[1][lane], p[2][lane]);
                     let want = texture.color(point, Vec2::ZERO);
@@ -215,9 +275,9 @@ mod tests {
             }
         }
         // Beyond 2³¹ bands, or NaN, the lanes decline: the per-node path shades those.
-        let far = [[3e9; 8], [0.0; 8], [0.0; 8]];
-        assert!(texels(&textures[1], &far).is_none() && texels(&textures[2], &far).is_none());
-        assert!(texels(&textures[2], &[[f32::NAN; 8], [0.0; 8], [0.0; 8]]).is_none());
-        assert!(texels(&textures[0], &far).is_some());
+        let (far, base) = ([[3e9; 8], [0.0; 8], [0.0; 8]], &mut [[0.0; 8]; 3]);
+        assert!(texels(&textures[1], &far, base).is_none() && texels(&textures[2], &far, base).is_none());
+        assert!(texels(&textures[2], &[[f32::NAN; 8], [0.0; 8], [0.0; 8]], base).is_none());
+        assert!(texels(&textures[0], &far, base).is_some());
     }
 }
