@@ -139,12 +139,51 @@ fn store(v: __m256) -> [f32; 8] {
 
 /// Keeps, in the lanes of `hit`, distance `t` and coordinates (`u`, `v`) of object `index`.
 #[target_feature(enable = "avx2")]
-fn keep(best: &mut Best8, mut hit: u32, t: __m256, u: __m256, v: __m256, index: u32) {
-    let (t, u, v) = (store(t), store(u), store(v));
-    while hit != 0 {
-        let lane = hit.trailing_zeros() as usize;
-        hit &= hit - 1;
-        best.set(lane, Hit { t: t[lane], uv: Vec2::new(u[lane], v[lane]), part: part::SIDE, prim: 0 }, index);
+fn keep(best: &mut Best8, hit: u32, t: __m256, u: __m256, v: __m256, index: u32) {
+    best.take_lanes(hit, [t, u, v], |_| part::SIDE, index);
+}
+
+#[target_feature(enable = "avx2")]
+#[allow(unsafe_code)]
+fn load_u32(a: &[u32; 8]) -> __m256i {
+    // SAFETY: reads eight u32s from a live `[u32; 8]`; the unaligned load has no
+    // alignment requirement.
+    unsafe { _mm256_loadu_si256(a.as_ptr().cast()) }
+}
+
+#[target_feature(enable = "avx2")]
+#[allow(unsafe_code)]
+fn store_u32(v: __m256i) -> [u32; 8] {
+    let mut a = [0u32; 8];
+    // SAFETY: an unaligned store of eight u32s into a local `[u32; 8]`.
+    unsafe { _mm256_storeu_si256(a.as_mut_ptr().cast(), v) };
+    a
+}
+
+impl Best8 {
+    /// Keeps, in the lanes of `hit` (a bit mask), distance, coordinates (`[t, u, v]`)
+    /// and part (`part(lane)`) of object `index`. A vector at a time: written lane by
+    /// lane, the distances stalled the next object's test, which loads them whole.
+    #[target_feature(enable = "avx2")]
+    fn take_lanes(&mut self, hit: u32, [t, u, v]: [__m256; 3], part: impl Fn(usize) -> u8, index: u32) {
+        if hit == 0 {
+            return;
+        }
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        let mask = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(hit as i32), bits), bits);
+        let m = _mm256_castsi256_ps(mask);
+        self.t = store(_mm256_blendv_ps(load(&self.t), t, m));
+        self.u = store(_mm256_blendv_ps(load(&self.u), u, m));
+        self.v = store(_mm256_blendv_ps(load(&self.v), v, m));
+        self.index = store_u32(_mm256_blendv_epi8(load_u32(&self.index), _mm256_set1_epi32(index as i32), mask));
+        let mut lanes = hit;
+        while lanes != 0 {
+            let lane = lanes.trailing_zeros() as usize;
+            lanes &= lanes - 1;
+            (self.part[lane], self.prim[lane]) = (part(lane), 0);
+        }
+        self.owned = if index == self.owner { self.owned | hit } else { hit };
+        self.owner = index;
     }
 }
 
@@ -242,13 +281,9 @@ impl Nearest8 {
     /// Keeps the hits taken, in the lanes `live`, as object `index`.
     #[target_feature(enable = "avx2")]
     fn keep(self, best: &mut Best8, live: u32, index: u32) {
-        let mut hit = _mm256_movemask_ps(self.taken) as u32 & live;
-        let (t, part) = (store(self.t), store(self.part));
-        while hit != 0 {
-            let lane = hit.trailing_zeros() as usize;
-            hit &= hit - 1;
-            best.set(lane, Hit { t: t[lane], uv: Vec2::ZERO, part: part[lane] as u8, prim: 0 }, index);
-        }
+        let hit = _mm256_movemask_ps(self.taken) as u32 & live;
+        let (zero, part) = (_mm256_setzero_ps(), store(self.part));
+        best.take_lanes(hit, [self.t, zero, zero], |lane| part[lane] as u8, index);
     }
 }
 
