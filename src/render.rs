@@ -6,7 +6,9 @@ use crate::accel::{AccelKind, Best8, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::geometry::Hit;
-use crate::integrator::{Integrator, LightFrames, Lit, NONE, PackedSurface, QuadBlock, RayStats, Traced};
+use crate::integrator::{
+    BlockKind, Integrator, LightFrames, Lit, MirrorBlock, NONE, PackedSurface, QuadBlock, RayStats, Traced,
+};
 use crate::math::{Aabb, Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
@@ -49,6 +51,8 @@ struct TileBuffers {
     block_hits: Vec<(u32, Aabb)>,
     /// The colours of `blocks`, lane by lane.
     block_colors: Vec<[[f32; 8]; 3]>,
+    /// Rays that hit a perfect mirror eight at a time, level by level ([`MirrorBlock`]).
+    mirrors: Vec<MirrorBlock>,
 }
 
 /// The tiles of an image, in reading order, shared out among workers: each starts on a
@@ -91,19 +95,24 @@ fn average(colors: &[Color], n: usize, pixels: &mut Vec<Color>) {
     pixels.extend(colors.chunks(n).map(|samples| samples.iter().fold(Color::ZERO, |sum, &c| sum + c) / n as f32));
 }
 
-/// Offers eight rays, nodes `first..first + 8`, and their hits to be shaded in lanes
-/// ([`Integrator::quad_block`]). A block taken goes to `blocks`, and the box round its
-/// hit points to `block_hits`.
+/// Offers eight rays, nodes `first..first + 8`, and their hits to be handled as a block
+/// ([`Integrator::mirror_block`], [`Integrator::quad_block`]). A block taken goes to
+/// `mirrors` or `blocks`, and for the latter the box round its hit points to
+/// `block_hits`.
 #[inline(always)]
 fn take_block(
     integrator: &Integrator,
-    shaded: &[bool],
-    (blocks, block_hits): (&mut Vec<QuadBlock>, &mut Vec<(u32, Aabb)>),
+    kinds: &[BlockKind],
+    (blocks, block_hits, mirrors): (&mut Vec<QuadBlock>, &mut Vec<(u32, Aabb)>, &mut Vec<MirrorBlock>),
     first: usize,
     rays: &[(Ray, Option<(Hit, u32)>)],
     hits: &Best8,
 ) -> bool {
-    let Some((block, bounds)) = integrator.quad_block(first as u32, rays, hits, shaded) else {
+    if let Some(block) = integrator.mirror_block(first as u32, rays, hits, kinds) {
+        mirrors.push(block);
+        return true;
+    }
+    let Some((block, bounds)) = integrator.quad_block(first as u32, rays, hits, kinds) else {
         return false;
     };
     merge_box(block_hits, (block.object(), bounds));
@@ -332,7 +341,7 @@ impl<'s> Renderer<'s> {
         let mut image = Image::new(self.width, self.height);
         let workers = rayon::current_num_threads().min(total);
         let queue = TileQueue::new(total, workers);
-        let shaded: Vec<bool> = (0..self.scene.objects.len() as u32).map(|i| integrator.lane_shaded(i)).collect();
+        let kinds: Vec<BlockKind> = (0..self.scene.objects.len() as u32).map(|i| integrator.block_kind(i)).collect();
         // A tile writes its pixels into its band of TILE rows, locked only for the copy;
         // a worker keeps its buffers for all the tiles it takes.
         let bands: Vec<Mutex<&mut [Color]>> =
@@ -348,7 +357,7 @@ impl<'s> Renderer<'s> {
                     }
                     let (x0, y0) = ((i % tiles_x) as u32 * TILE, (i / tiles_x) as u32 * TILE);
                     let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
-                    self.render_tile(world, &rig, &integrator, &shaded, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    self.render_tile(world, &rig, &integrator, &kinds, (x0, y0, x1, y1), &mut tile, &mut stats);
                     let mut rows = bands[i / tiles_x].lock().unwrap_or_else(|e| e.into_inner());
                     for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
                         let at = y * width + x0 as usize;
@@ -375,20 +384,20 @@ impl<'s> Renderer<'s> {
     }
 
     /// Traces the pixels of one tile, `(x0, y0)` to `(x1, y1)` exclusive, into
-    /// `buf.pixels` row by row. Blocks of eight camera rays on one object that `shaded`
-    /// marks ([`Integrator::lane_shaded`]) are shaded in lanes.
+    /// `buf.pixels` row by row. Blocks of eight rays on one object of a kind in `kinds`
+    /// ([`Integrator::block_kind`]) are handled together.
     #[allow(clippy::too_many_arguments)]
     fn render_tile(
         &self,
         world: &World,
         rig: &CameraRig,
         integrator: &Integrator,
-        shaded: &[bool],
+        kinds: &[BlockKind],
         (x0, y0, x1, y1): (u32, u32, u32, u32),
         buf: &mut TileBuffers,
         stats: &mut RayStats,
     ) {
-        let TileBuffers { pixels, samples, points, found, seen, blocks, block_hits, .. } = buf;
+        let TileBuffers { pixels, samples, points, found, seen, blocks, block_hits, mirrors, .. } = buf;
         pixels.clear();
         found.clear();
         points.clear();
@@ -412,10 +421,11 @@ impl<'s> Renderer<'s> {
         if culled {
             blocks.clear();
             block_hits.clear();
+            mirrors.clear();
             world.closest_among_each_or(seen, found, |first, rays, hits| {
-                take_block(integrator, shaded, (blocks, block_hits), first, rays, hits)
+                take_block(integrator, kinds, (blocks, block_hits, mirrors), first, rays, hits)
             });
-            self.trace_ahead(world, integrator, shaded, buf, stats);
+            self.trace_ahead(world, integrator, kinds, buf, stats);
         }
         let TileBuffers { pixels, samples, found, next, surfaces, lit, colors, blocks, block_colors, .. } = buf;
         let n = samples.len();
@@ -445,7 +455,7 @@ impl<'s> Renderer<'s> {
         &self,
         world: &World,
         integrator: &Integrator,
-        shaded: &[bool],
+        kinds: &[BlockKind],
         buf: &mut TileBuffers,
         stats: &mut RayStats,
     ) {
@@ -457,8 +467,11 @@ impl<'s> Renderer<'s> {
         // surface itself, which the culling assumes it does not.
         let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
         buf.block_colors.clear();
-        let (mut level, mut depth) = (0..buf.found.len(), 1u32);
+        let (mut level, mut depth, mut mirrors_done) = (0..buf.found.len(), 1u32, 0);
         loop {
+            // The level's mirror blocks, taken when its rays' hits were found.
+            let mirrors = mirrors_done..buf.mirrors.len();
+            mirrors_done = mirrors.end;
             surfaces_hit(integrator, buf, level.start);
             let TileBuffers { hits, blockers, blocks, block_hits, block_colors, .. } = &mut *buf;
             // The level's hits shaded in lanes may be shadowed by what the others may.
@@ -476,9 +489,13 @@ impl<'s> Renderer<'s> {
             integrator.shade_blocks(&blocks[block_colors.len()..], blockers, block_colors, stats);
             self.look_at_lights(integrator, buf, level.clone());
             if depth >= self.max_depth {
+                let TileBuffers { found, sent, mirrors: blocks, .. } = &mut *buf;
+                for block in &blocks[mirrors] {
+                    integrator.mirror_rays(block, found, depth, sent, stats);
+                }
                 break;
             }
-            match self.send_on(world, integrator, shaded, buf, level, depth, stats) {
+            match self.send_on(world, integrator, kinds, buf, (level, mirrors), depth, stats) {
                 Some(next_level) => (level, depth) = (next_level, depth + 1),
                 None => break,
             }
@@ -509,21 +526,22 @@ impl<'s> Renderer<'s> {
     /// grouped by the object they leave and how (reflected or transmitted), linked by
     /// `buf.next` and counted in `stats`, with what they hit: a group of four or more
     /// tested only against what it may meet ([`World::seen_along`]), eight at a time,
-    /// blocks of eight on one object that `shaded` marks taken to be shaded in lanes.
-    /// Returns the new nodes, if any.
+    /// blocks of eight on one object of a kind in `kinds` taken to be handled together.
+    /// The level's mirror blocks (`buf.mirrors[mirrors]`) get their hits back and send
+    /// their rays with the rest. Returns the new nodes, if any.
     #[inline(never)]
     #[allow(clippy::too_many_arguments)]
     fn send_on(
         &self,
         world: &World,
         integrator: &Integrator,
-        shaded: &[bool],
+        kinds: &[BlockKind],
         buf: &mut TileBuffers,
-        level: std::ops::Range<usize>,
+        (level, mirrors): (std::ops::Range<usize>, std::ops::Range<usize>),
         depth: u32,
         stats: &mut RayStats,
     ) -> Option<std::ops::Range<usize>> {
-        let TileBuffers { found, next, surfaces, seen, sent, blocks, block_hits, .. } = buf;
+        let TileBuffers { found, next, surfaces, seen, sent, blocks, block_hits, mirrors: taken, .. } = buf;
         sent.clear();
         for k in level {
             if let (ray, Some((_, i))) = &found[k]
@@ -536,6 +554,9 @@ impl<'s> Renderer<'s> {
                     }
                 }
             }
+        }
+        for block in &taken[mirrors] {
+            integrator.mirror_rays(block, found, depth, sent, stats);
         }
         if sent.is_empty() {
             return None;
@@ -553,7 +574,7 @@ impl<'s> Renderer<'s> {
             at += group.len();
             if rays.len() >= 4 && world.seen_along(rays, seen) {
                 world.closest_among_each_or(seen, rays, |k, rays, hits| {
-                    take_block(integrator, shaded, (blocks, block_hits), first + k, rays, hits)
+                    take_block(integrator, kinds, (blocks, block_hits, taken), first + k, rays, hits)
                 });
             } else {
                 for (ray, hit) in rays {
@@ -784,27 +805,33 @@ mod tests {
         let (lanes, by_ray) = (render(AccelKind::Bvh), render(AccelKind::None));
         assert_eq!(lanes.stats, by_ray.stats);
         assert!(lanes.image == by_ray.image);
-        // Where the processor has AVX2, a tile of floor takes its camera rays as blocks.
+        // Where the processor has AVX2, the tiles take camera rays as blocks of both kinds.
         let world = World::new(&scene, AccelKind::Bvh);
         let integrator = Integrator::new(&world, scene.settings.max_depth);
-        let shaded: Vec<bool> = (0..scene.objects.len() as u32).map(|i| integrator.lane_shaded(i)).collect();
-        assert_eq!(shaded, [true, true, true, false, false]);
+        let kinds: Vec<BlockKind> = (0..scene.objects.len() as u32).map(|i| integrator.block_kind(i)).collect();
+        use BlockKind::{Matte, Mirror};
+        assert_eq!(kinds, [Matte, Matte, Matte, Mirror, BlockKind::None]);
         let rig = scene.camera.rig().unwrap();
-        let (apex, edges) = rig.cone(16.0, 32.0, 32.0, 48.0);
-        let mut seen = Vec::new();
-        assert!(world.seen_from(apex, edges, &mut seen));
-        let mut found = Vec::new();
-        let points: Vec<Vec2> =
-            (32..48).flat_map(|y| (16..32).map(move |x| Vec2::new(x as f32 + 0.5, y as f32 + 0.5))).collect();
-        rig.rays(&points, |ray| found.push((ray, None)));
-        let (mut blocks, mut boxes) = (Vec::new(), Vec::new());
-        world.closest_among_each_or(&seen, &mut found, |first, rays, hits| {
-            take_block(&integrator, &shaded, (&mut blocks, &mut boxes), first, rays, hits)
-        });
-        if std::is_x86_feature_detected!("avx2") {
-            assert!(blocks.len() >= 16, "{} blocks", blocks.len());
+        let (mut blocks, mut boxes, mut mirrors, mut seen) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for (x, y) in (0..3).flat_map(|y| (0..4).map(move |x| (16 * x, 16 * y))) {
+            let (apex, edges) = rig.cone(x as f32, y as f32, (x + 16) as f32, (y + 16) as f32);
+            assert!(world.seen_from(apex, edges, &mut seen));
+            let mut found = Vec::new();
+            let points: Vec<Vec2> =
+                (y..y + 16).flat_map(|y| (x..x + 16).map(move |x| Vec2::new(x as f32 + 0.5, y as f32 + 0.5))).collect();
+            rig.rays(&points, |ray| found.push((ray, None)));
+            let (taken, mine) = (blocks.len() + mirrors.len(), blocks.len());
+            world.closest_among_each_or(&seen, &mut found, |first, rays, hits| {
+                take_block(&integrator, &kinds, (&mut blocks, &mut boxes, &mut mirrors), first, rays, hits)
+            });
+            // Blocks taken are left without hits (so are rays into the open).
+            let left = found.iter().filter(|(_, hit)| hit.is_none()).count();
+            assert!(left >= 8 * (blocks.len() + mirrors.len() - taken), "tile at ({x}, {y})");
+            assert!(blocks[mine..].iter().all(|b| found[b.node()..b.node() + 8].iter().all(|(_, hit)| hit.is_none())));
         }
-        assert_eq!(found.iter().filter(|(_, hit)| hit.is_none()).count(), 8 * blocks.len());
+        if std::is_x86_feature_detected!("avx2") {
+            assert!(blocks.len() >= 40 && mirrors.len() >= 4, "{} and {} blocks", blocks.len(), mirrors.len());
+        }
     }
 
     #[test]

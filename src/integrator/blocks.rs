@@ -8,11 +8,35 @@
 //! ([`crate::geometry::Quad::surface`], `leaving`, [`towards_lanes`], `local`), so the
 //! colours, and the ray counts, are the same to the bit.
 
-use super::{Integrator, RayStats, towards_lanes};
+use super::{Integrator, RayStats, leaving, reflected, towards_lanes};
 use crate::accel::Best8;
-use crate::geometry::Shape;
-use crate::math::{Aabb, Ray, Vec3};
+use crate::geometry::{Hit, Shape, part};
+use crate::math::{Aabb, Ray, Vec2, Vec3};
 use crate::texture::Texture;
+
+/// How hits on an object can be handled eight at a time ([`Integrator::block_kind`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BlockKind {
+    /// Node by node.
+    None,
+    /// Shaded in lanes: [`QuadBlock`].
+    Matte,
+    /// Reflected ray by ray, past the per-node passes: [`MirrorBlock`].
+    Mirror,
+}
+
+/// Eight hits on one perfect mirror quad, nodes `node..node + 8` of a tile. Their own
+/// share is black and they look at no light, so they skip the per-node passes for
+/// surfaces and lights: [`Integrator::mirror_rays`] puts their hits back and sends
+/// their reflected rays on.
+#[derive(Clone, Debug)]
+pub struct MirrorBlock {
+    node: u32,
+    object: u32,
+    t: [f32; 8],
+    u: [f32; 8],
+    v: [f32; 8],
+}
 
 /// Eight hits on one quad, nodes `node..node + 8` of a tile, ready to be lit: where
 /// their shadow rays leave from, the normal on the rays' side, and the texel.
@@ -96,24 +120,72 @@ fn texels(texture: &Texture, p: &[[f32; 8]; 3], base: &mut [[f32; 8]; 3]) -> Opt
 }
 
 impl Integrator<'_, '_> {
-    /// Whether hits on object `index` can be shaded in a [`QuadBlock`]: a quad whose
-    /// material sends no rays on, has no highlight, has a diffuse term and a solid-space
-    /// texture, shaded two-sided.
-    pub fn lane_shaded(&self, index: u32) -> bool {
+    /// How hits on object `index` can be handled eight at a time: in a [`QuadBlock`], a
+    /// quad whose material sends no rays on, has no highlight, has a diffuse term and a
+    /// solid-space texture, shaded two-sided; in a [`MirrorBlock`], a quad that is a
+    /// perfect mirror (it reflects all, without a highlight).
+    pub fn block_kind(&self, index: u32) -> BlockKind {
         let scene = self.world.scene();
         let object = &scene.objects[index as usize];
         let m = scene.material(object.material);
-        !self.one_sided
-            && matches!(object.shape, Shape::Quad(_))
-            && m.reflectivity == 0.0
-            && m.transparency == 0.0
-            && !(m.specular > 0.0)
-            && m.diffuse != 0.0
-            && !m.texture.uses_uv()
+        if !matches!(object.shape, Shape::Quad(_)) || m.specular > 0.0 || m.transparency != 0.0 {
+            return BlockKind::None;
+        }
+        if m.reflectivity == 1.0 {
+            BlockKind::Mirror
+        } else if !self.one_sided && m.reflectivity == 0.0 && m.diffuse != 0.0 && !m.texture.uses_uv() {
+            BlockKind::Matte
+        } else {
+            BlockKind::None
+        }
+    }
+
+    /// The eight `rays` (nodes `node..node + 8`) as a [`MirrorBlock`], when their hits
+    /// `hits` all lie on one object of that kind (`kinds`, from [`Integrator::block_kind`]).
+    #[inline(always)]
+    pub fn mirror_block<T>(
+        &self,
+        node: u32,
+        rays: &[(Ray, T)],
+        hits: &Best8,
+        kinds: &[BlockKind],
+    ) -> Option<MirrorBlock> {
+        let object = hits.one_object()?;
+        if rays.len() != 8 || kinds.get(object as usize) != Some(&BlockKind::Mirror) {
+            return None;
+        }
+        Some(MirrorBlock { node, object, t: hits.t, u: hits.u, v: hits.v })
+    }
+
+    /// The hits of `block` put back into `found`, and the rays they reflect, if the
+    /// `depth`-th rays of their chains send rays on, into `sent` (as `send_on` keys them:
+    /// the object, slot 0, the node), counted in `stats`: [`Integrator::sent_on`]'s.
+    pub fn mirror_rays(
+        &self,
+        block: &MirrorBlock,
+        found: &mut [(Ray, Option<(Hit, u32)>)],
+        depth: u32,
+        sent: &mut Vec<((u32, u32), u32, Ray)>,
+        stats: &mut RayStats,
+    ) {
+        let object = block.object;
+        let Shape::Quad(quad) = &self.world.scene().objects[object as usize].shape else { return };
+        let sends = self.sends(object, depth);
+        for lane in 0..8 {
+            let node = block.node as usize + lane;
+            let (ray, hit) = &mut found[node];
+            let h = Hit { t: block.t[lane], uv: Vec2::new(block.u[lane], block.v[lane]), part: part::SIDE, prim: 0 };
+            *hit = Some((h, object));
+            if sends {
+                let (side, from) = leaving(ray, &quad.surface(ray, &h));
+                stats.reflection += 1;
+                sent.push(((object, 0), node as u32, reflected(ray, side, from)));
+            }
+        }
     }
 
     /// The eight `rays` (nodes `node..node + 8`) as a [`QuadBlock`], when their hits
-    /// `hits` all lie on one object that `shaded` marks ([`Integrator::lane_shaded`]),
+    /// `hits` all lie on one object of that kind (`kinds`, from [`Integrator::block_kind`]),
     /// with the box round their hit points `ray.at(t)` (as the per-node path boxes them).
     #[inline(always)]
     #[allow(clippy::needless_range_loop)] // each lane reads and writes several rows
@@ -122,10 +194,10 @@ impl Integrator<'_, '_> {
         node: u32,
         rays: &[(Ray, T)],
         hits: &Best8,
-        shaded: &[bool],
+        kinds: &[BlockKind],
     ) -> Option<(QuadBlock, Aabb)> {
         let object = hits.one_object()?;
-        if rays.len() != 8 || !shaded.get(object as usize).copied()? {
+        if rays.len() != 8 || kinds.get(object as usize) != Some(&BlockKind::Matte) {
             return None;
         }
         let scene = self.world.scene();

@@ -5,7 +5,7 @@
 mod blocks;
 mod stats;
 
-pub use blocks::QuadBlock;
+pub use blocks::{BlockKind, MirrorBlock, QuadBlock};
 
 pub use stats::RayStats;
 
