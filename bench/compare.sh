@@ -3,8 +3,9 @@
 # displaced cube-sphere and a cloud of 10^6 spheres, same rays) alternately on this
 # machine, prints the ratios that issue 7 tracks, and appends the figures as JSON lines
 # to bench/results/DATE.jsonl. Installs povray and libembree-dev from Debian if missing.
-# Usage: [ROUNDS=3] bench/compare.sh [THREADS] [--big]   (default 2 threads, about five
-# minutes; --big adds the 10M-triangle cube-sphere once, about two minutes more)
+# Usage: [ROUNDS=3] [ROOM_ROUNDS=6] bench/compare.sh [THREADS] [--big]   (default 2
+# threads, about five minutes; --big adds the 10M-triangle cube-sphere once, about two
+# minutes more)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 threads=2; big=0
@@ -19,6 +20,9 @@ cargo build --release -q
 [ -x target/embree_bench ] || bash "$tools/embree-bench/build.sh" target/embree_bench >/dev/null
 
 rounds="${ROUNDS:-3}"
+# The room renders are short (a tenth of a second and less) and so at the mercy of the
+# host's other load; they get more rounds, still alternating and the same for both.
+room_rounds="${ROOM_ROUNDS:-6}"
 best() { sort -g | head -1; }
 whitted_room() { # spp -> render time in seconds
     ./target/release/whitted render --threads "$threads" --spp "$1" --stats -q -o target/compare-room.png |
@@ -29,13 +33,16 @@ pov_room() { # mode -> POV-Ray trace time in seconds
 }
 
 # The machine is shared and its second core comes and goes, so each program runs once a
-# round, alternating, for $rounds rounds, and each keeps its best figure.
-echo "CPU: $cpu; $threads threads; $rounds rounds; $(uptime | sed 's/.*load/load/')"
+# round, alternating, for $room_rounds rounds (the room) and $rounds rounds (the rest),
+# and each keeps its best figure.
+echo "CPU: $cpu; $threads threads; $room_rounds rounds of the room, $rounds of the rest; $(uptime | sed 's/.*load/load/')"
 for f in room-w1 room-p1 room-w4 room-p5 embree-1M.txt whitted-1M.jsonl embree-cloud.txt whitted-cloud.jsonl \
     embree-10M.txt whitted-10M.jsonl; do : > "target/$f"; done
-for _ in $(seq "$rounds"); do
+for _ in $(seq "$room_rounds"); do
     whitted_room 1 >> target/room-w1; pov_room noaa >> target/room-p1
     whitted_room 4 >> target/room-w4; pov_room aa >> target/room-p5
+done
+for _ in $(seq "$rounds"); do
     ./target/embree_bench --gen-cubesphere 289 --name cubesphere-1M --quality high --runs 5 --no-packets >> target/embree-1M.txt
     ./target/release/whitted bench --scene cubesphere-1M --threads "$threads" --runs 5 --json >> target/whitted-1M.jsonl
     ./target/embree_bench --spheres 1000000 --name sphere-cloud-1M --quality high --runs 5 --no-packets >> target/embree-cloud.txt
@@ -48,10 +55,11 @@ if [ "$big" = 1 ]; then
 fi
 
 commit="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD 2>/dev/null || echo +changes)"
-python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" "$commit" <<'PY'
+python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" "$commit" "$room_rounds" <<'PY'
 import json, re, sys
 w1, p1, w4, p5 = map(float, sys.argv[1:5])
 cpu, date, threads, out, commit = sys.argv[5], sys.argv[6], int(sys.argv[7]), sys.argv[8], sys.argv[9]
+room_rounds = int(sys.argv[10])
 def embree(path):
     """Embree's best figures over the rounds: highest rates, shortest build."""
     emb = {}
@@ -109,7 +117,8 @@ if w10:
 for name, ratio, detail in rows:
     print(f"{name:<66} {ratio:8.3f}   ({detail})")
 with open(out, "a") as f:
-    record = {"date": date, "commit": commit, "cpu": cpu, "threads": threads, "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
+    record = {"date": date, "commit": commit, "cpu": cpu, "threads": threads, "room_rounds": room_rounds,
+              "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
               "povray_aa_s": p5, "embree": emb, "whitted": w, "embree_cloud": emb_cloud, "whitted_cloud": w_cloud,
               "embree_10M": emb10 or None, "whitted_10M": w10, "ratios": {n: r for n, r, _ in rows}}
     f.write(json.dumps(record) + "\n")
