@@ -477,11 +477,6 @@ impl<'s> World<'s> {
         self.kind
     }
 
-    /// Whether the processor has AVX2 (the eight-lane paths run only then).
-    pub fn avx2(&self) -> bool {
-        self.avx2
-    }
-
     /// Time spent building the acceleration structures.
     pub fn build_time(&self) -> Duration {
         self.build_time

@@ -252,36 +252,6 @@ impl Integrator<'_, '_> {
         colors: &mut Vec<[[f32; 8]; 3]>,
         stats: &mut RayStats,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if self.world.avx2() {
-            // SAFETY: `avx2` is set only where the processor has AVX2.
-            #[allow(unsafe_code)]
-            return unsafe { self.shade_blocks_avx2(blocks, blockers, colors, stats) };
-        }
-        self.shade_blocks_in(blocks, blockers, colors, stats)
-    }
-
-    /// [`Integrator::shade_blocks`] compiled for AVX2: eight lanes to a vector.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn shade_blocks_avx2(
-        &self,
-        blocks: &[QuadBlock],
-        blockers: &[Option<Vec<u32>>],
-        colors: &mut Vec<[[f32; 8]; 3]>,
-        stats: &mut RayStats,
-    ) {
-        self.shade_blocks_in(blocks, blockers, colors, stats)
-    }
-
-    #[inline(always)]
-    fn shade_blocks_in(
-        &self,
-        blocks: &[QuadBlock],
-        blockers: &[Option<Vec<u32>>],
-        colors: &mut Vec<[[f32; 8]; 3]>,
-        stats: &mut RayStats,
-    ) {
         let scene = self.world.scene();
         for b in blocks {
             let material = scene.material(scene.objects[b.object as usize].material);
