@@ -45,7 +45,7 @@ struct TileBuffers {
     /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
     /// the node sending it, the ray.
     sent: Vec<((u32, u32), u32, Ray)>,
-    /// Camera rays shaded in lanes, eight at a time ([`QuadBlock`]), not node by node.
+    /// Rays shaded in lanes, eight at a time ([`QuadBlock`]), not node by node.
     blocks: Vec<QuadBlock>,
     /// Per object, a box round the hit points of `blocks`.
     block_hits: Vec<(u32, Aabb)>,
@@ -489,8 +489,9 @@ impl<'s> Renderer<'s> {
             integrator.shade_blocks(&blocks[block_colors.len()..], blockers, block_colors, stats);
             self.look_at_lights(integrator, buf, level.clone());
             if depth >= self.max_depth {
-                let TileBuffers { found, sent, mirrors: blocks, .. } = &mut *buf;
-                for block in &blocks[mirrors] {
+                // The level's mirror blocks get their hits back; they send nothing on.
+                let TileBuffers { found, sent, mirrors: taken, .. } = &mut *buf;
+                for block in &taken[mirrors] {
                     integrator.mirror_rays(block, found, depth, sent, stats);
                 }
                 break;
