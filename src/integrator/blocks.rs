@@ -16,7 +16,7 @@
 use super::{Integrator, RayStats, leaving, reflected, towards_lanes};
 use crate::accel::Best8;
 use crate::geometry::{Hit, Shape, part};
-use crate::math::{Aabb, Ray, Vec2, Vec3};
+use crate::math::{Aabb, Ray, Vec2, Vec3, surface_offset};
 use crate::texture::Texture;
 
 /// How hits on an object can be handled eight at a time ([`Integrator::block_kind`]).
@@ -229,9 +229,8 @@ impl Integrator<'_, '_> {
                 b.normal[k][lane] = side[k];
             }
         }
-        let max = |a: f32, b: f32| if a > b { a } else { b };
         for lane in 0..8 {
-            let offset = 1e-4 * (1.0 + max(max(point[0][lane].abs(), point[1][lane].abs()), point[2][lane].abs()));
+            let offset = surface_offset(Vec3::new(point[0][lane], point[1][lane], point[2][lane]));
             for k in 0..3 {
                 b.from[k][lane] = point[k][lane] + offset * b.normal[k][lane];
             }

@@ -413,7 +413,7 @@ pub struct Towards8 {
 /// in glam's order, so each lane is bit-identical to [`towards`], written on plain
 /// arrays so that the compiler computes the lanes together (one hit at a time, each
 /// square root and division waited for the one before).
-#[inline(always)]
+#[inline]
 pub fn towards_lanes(light: Vec3, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> Towards8 {
     let mut out = Towards8::default();
     for lane in 0..8 {
