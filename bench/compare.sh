@@ -3,8 +3,8 @@
 # displaced cube-sphere and a cloud of 10^6 spheres, same rays) alternately on this
 # machine, prints the ratios that issue 7 tracks, and appends the figures as JSON lines
 # to bench/results/DATE.jsonl. Installs povray and libembree-dev from Debian if missing.
-# Usage: [ROUNDS=3] [ROOM_ROUNDS=6] bench/compare.sh [THREADS] [--big]   (default 2
-# threads, about five minutes; --big adds the 10M-triangle cube-sphere once, about two
+# Usage: [ROUNDS=3] [ROOM_ROUNDS=3] bench/compare.sh [THREADS] [--big]   (default 2
+# threads, about six minutes; --big adds the 10M-triangle cube-sphere once, about three
 # minutes more)
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -21,8 +21,18 @@ cargo build --release -q
 
 rounds="${ROUNDS:-3}"
 # The room renders are short (a tenth of a second and less) and so at the mercy of the
-# host's other load; they get more rounds, still alternating and the same for both.
-room_rounds="${ROOM_ROUNDS:-6}"
+# host's other load, which comes in spells of minutes: they get batches of
+# $room_rounds rounds spread over the whole run (before each mesh round, after the last,
+# and after the 10M mesh), still alternating and the same for both.
+room_rounds="${ROOM_ROUNDS:-3}"
+room_batches=0
+room_batch() {
+    for _ in $(seq "$room_rounds"); do
+        whitted_room 1 >> target/room-w1; pov_room noaa >> target/room-p1
+        whitted_room 4 >> target/room-w4; pov_room aa >> target/room-p5
+    done
+    room_batches=$((room_batches + 1))
+}
 best() { sort -g | head -1; }
 whitted_room() { # spp -> render time in seconds
     ./target/release/whitted render --threads "$threads" --spp "$1" --stats -q -o target/compare-room.png |
@@ -33,33 +43,34 @@ pov_room() { # mode -> POV-Ray trace time in seconds
 }
 
 # The machine is shared and its second core comes and goes, so each program runs once a
-# round, alternating, for $room_rounds rounds (the room) and $rounds rounds (the rest),
-# and each keeps its best figure.
-echo "CPU: $cpu; $threads threads; $room_rounds rounds of the room, $rounds of the rest; $(uptime | sed 's/.*load/load/')"
+# round, alternating, for the room's rounds and $rounds rounds of the rest, and each keeps
+# its best figure.
+echo "CPU: $cpu; $threads threads; $rounds rounds, the room in batches of $room_rounds; $(uptime | sed 's/.*load/load/')"
 for f in room-w1 room-p1 room-w4 room-p5 embree-1M.txt whitted-1M.jsonl embree-cloud.txt whitted-cloud.jsonl \
     embree-10M.txt whitted-10M.jsonl; do : > "target/$f"; done
-for _ in $(seq "$room_rounds"); do
-    whitted_room 1 >> target/room-w1; pov_room noaa >> target/room-p1
-    whitted_room 4 >> target/room-w4; pov_room aa >> target/room-p5
-done
 for _ in $(seq "$rounds"); do
+    room_batch
     ./target/embree_bench --gen-cubesphere 289 --name cubesphere-1M --quality high --runs 5 --no-packets >> target/embree-1M.txt
     ./target/release/whitted bench --scene cubesphere-1M --threads "$threads" --runs 5 --json >> target/whitted-1M.jsonl
     ./target/embree_bench --spheres 1000000 --name sphere-cloud-1M --quality high --runs 5 --no-packets >> target/embree-cloud.txt
     ./target/release/whitted bench --scene sphere-cloud-1M --threads "$threads" --runs 5 --json >> target/whitted-cloud.jsonl
 done
-w1=$(best < target/room-w1); p1=$(best < target/room-p1); w4=$(best < target/room-w4); p5=$(best < target/room-p5)
+room_batch
 if [ "$big" = 1 ]; then
     ./target/embree_bench --gen-cubesphere 913 --name cubesphere-10M --quality high --runs 3 --no-packets > target/embree-10M.txt
     ./target/release/whitted bench --scene cubesphere-10M --threads "$threads" --runs 3 --json > target/whitted-10M.jsonl
+    room_batch
 fi
+w1=$(best < target/room-w1); p1=$(best < target/room-p1); w4=$(best < target/room-w4); p5=$(best < target/room-p5)
 
 commit="$(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet HEAD 2>/dev/null || echo +changes)"
-python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" "$commit" "$room_rounds" <<'PY'
+python3 - "$w1" "$p1" "$w4" "$p5" "$cpu" "$date" "$threads" "$out" "$commit" "$((room_rounds * room_batches))" <<'PY'
 import json, re, sys
 w1, p1, w4, p5 = map(float, sys.argv[1:5])
 cpu, date, threads, out, commit = sys.argv[5], sys.argv[6], int(sys.argv[7]), sys.argv[8], sys.argv[9]
 room_rounds = int(sys.argv[10])
+# Every room figure, in the order taken, to show the spread behind the best ones.
+room_samples = {k: [float(x) for x in open(f"target/room-{k}").read().split()] for k in ("w1", "p1", "w4", "p5")}
 def embree(path):
     """Embree's best figures over the rounds: highest rates, shortest build."""
     emb = {}
@@ -119,7 +130,7 @@ for name, ratio, detail in rows:
 with open(out, "a") as f:
     record = {"date": date, "commit": commit, "cpu": cpu, "threads": threads, "room_rounds": room_rounds,
               "room_spp1_s": w1, "povray_noaa_s": p1, "room_spp4_s": w4,
-              "povray_aa_s": p5, "embree": emb, "whitted": w, "embree_cloud": emb_cloud, "whitted_cloud": w_cloud,
+              "povray_aa_s": p5, "room_samples_s": room_samples, "embree": emb, "whitted": w, "embree_cloud": emb_cloud, "whitted_cloud": w_cloud,
               "embree_10M": emb10 or None, "whitted_10M": w10, "ratios": {n: r for n, r, _ in rows}}
     f.write(json.dumps(record) + "\n")
 print(f"appended to {out}")
