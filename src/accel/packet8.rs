@@ -6,6 +6,11 @@
 //! images do not depend on the path.
 //!
 //! Calling these is sound only where the processor has AVX2.
+//!
+//! The shape tests are `#[inline]`, so that [`super::World::eight_lanes`] gets them
+//! inlined whichever of the release build's four codegen units they land in: in an
+//! experiment that only added code elsewhere, they moved to another unit and were
+//! called out of line, each test a call with its rays and best hits read from memory.
 
 use crate::geometry::{Cone, Cylinder, Hit, Quad, Sphere, part};
 use crate::math::{Ray, Vec2};
@@ -190,6 +195,7 @@ impl Best8 {
 /// [`Quad::intersect`] in eight lanes, with `t_min` 0 and each lane's bound `best.t`;
 /// the lanes `live` (a bit mask) that hit keep it as object `index`.
 #[target_feature(enable = "avx2")]
+#[inline]
 pub fn quad(q: &Quad, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
     let (normal, plane_d) = q.plane();
     let (n, corner, eu, ev, w) = (splat3(normal), splat3(q.corner), splat3(q.edge_u), splat3(q.edge_v), splat3(q.w()));
@@ -219,6 +225,7 @@ pub fn quad(q: &Quad, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
 
 /// [`Sphere::intersect`] in eight lanes, as [`quad`].
 #[target_feature(enable = "avx2")]
+#[inline]
 pub fn sphere(s: &Sphere, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
     let (mul, sub) = (_mm256_mul_ps, _mm256_sub_ps);
     let center = splat3(s.center);
@@ -309,6 +316,7 @@ fn minus_along(v: &[__m256; 3], s: __m256, axis: &[__m256; 3]) -> [__m256; 3] {
 
 /// [`Cylinder::intersect`] in eight lanes, as [`quad`].
 #[target_feature(enable = "avx2")]
+#[inline]
 pub fn cylinder(cyl: &Cylinder, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
     let (mul, sub, add, div) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps, _mm256_div_ps);
     let (base, axis) = (splat3(cyl.base), splat3(cyl.axis));
@@ -347,6 +355,7 @@ pub fn cylinder(cyl: &Cylinder, r: &Rays8, live: u32, best: &mut Best8, index: u
 
 /// [`Cone::intersect`] in eight lanes for a pointed cone (`top_radius` 0), as [`quad`].
 #[target_feature(enable = "avx2")]
+#[inline]
 pub fn pointed_cone(cone: &Cone, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
     debug_assert!(cone.top_radius == 0.0);
     let (mul, sub, add, div) = (_mm256_mul_ps, _mm256_sub_ps, _mm256_add_ps, _mm256_div_ps);
