@@ -2,14 +2,11 @@
 //! film. Every pixel depends only on the scene, the settings and its own coordinates, so
 //! the image is the same for any thread count.
 
-use crate::accel::{AccelKind, Best8, World};
+use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
-use crate::geometry::Hit;
-use crate::integrator::{
-    BlockKind, Integrator, LightFrames, Lit, MirrorBlock, NONE, PackedSurface, QuadBlock, RayStats, Traced,
-};
-use crate::math::{Aabb, Color, Ray, Vec2};
+use crate::integrator::{Integrator, RayStats, WAVE_RAYS, Wave};
+use crate::math::{Color, Ray, Vec2};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -25,34 +22,34 @@ const TILE: u32 = 16;
 #[derive(Default)]
 struct TileBuffers {
     pixels: Vec<Color>,
-    /// Per node, the colour seen along its ray.
-    colors: Vec<Color>,
     samples: Vec<Vec2>,
-    /// Where the tile's camera rays go through the image, in pixels.
+    /// Where a wave's camera rays go through the image, in pixels.
     points: Vec<Vec2>,
-    /// The tile's rays and their hits: camera rays, then those sent on ([`Traced`]).
-    found: Vec<(Ray, Option<(Hit, u32)>)>,
-    next: Vec<[u32; 2]>,
-    surfaces: Vec<PackedSurface>,
-    seen: Vec<u32>,
-    hits: Vec<(u32, Aabb)>,
-    /// Per light, the objects that may shadow one level's hits.
-    blockers: Vec<Option<Vec<u32>>>,
-    /// Per node and light, the light seen from its hit ([`Traced`]).
-    lit: Vec<Lit>,
-    /// The hits of one level that may be lit, as the lights see them.
-    frames: LightFrames,
-    /// Rays sent on from one level: (leaving object, reflected 0 or transmitted 1),
-    /// the node sending it, the ray.
-    sent: Vec<((u32, u32), u32, Ray)>,
-    /// Rays shaded in lanes, eight at a time ([`QuadBlock`]), not node by node.
-    blocks: Vec<QuadBlock>,
-    /// Per object, a box round the hit points of `blocks`.
-    block_hits: Vec<(u32, Aabb)>,
-    /// The colours of `blocks`, lane by lane.
-    block_colors: Vec<[[f32; 8]; 3]>,
-    /// Rays that hit a perfect mirror eight at a time, level by level ([`MirrorBlock`]).
-    mirrors: Vec<MirrorBlock>,
+    rays: Vec<Ray>,
+    colors: Vec<Color>,
+    wave: Wave,
+}
+
+/// A pixel's samples summed as they come, in order, then averaged.
+#[derive(Default)]
+struct PixelSum {
+    sum: Color,
+    count: u32,
+}
+
+impl PixelSum {
+    /// Adds the colours of consecutive samples; each pixel of `spp` samples completed
+    /// goes to `pixels`, the mean of its samples (the sample itself when there is one).
+    fn add(&mut self, colors: &[Color], spp: u32, pixels: &mut Vec<Color>) {
+        for &c in colors {
+            self.sum += c;
+            self.count += 1;
+            if self.count == spp {
+                pixels.push(if spp == 1 { c } else { self.sum / spp as f32 });
+                *self = PixelSum::default();
+            }
+        }
+    }
 }
 
 /// The tiles of an image, in reading order, shared out among workers: each starts on a
@@ -87,81 +84,6 @@ impl TileQueue {
     }
 }
 
-/// The mean of each `n` colours in turn, appended to `pixels`: the samples of a pixel.
-/// Apart from the tile's big loop, whose registers were all taken, so that the sums
-/// went through memory.
-#[inline(never)]
-fn average(colors: &[Color], n: usize, pixels: &mut Vec<Color>) {
-    pixels.extend(colors.chunks(n).map(|samples| samples.iter().fold(Color::ZERO, |sum, &c| sum + c) / n as f32));
-}
-
-/// Offers eight rays, nodes `first..first + 8`, and their hits to be handled as a block
-/// ([`Integrator::mirror_block`], [`Integrator::quad_block`]). A block taken goes to
-/// `mirrors` or `blocks`, and for the latter the box round its hit points to
-/// `block_hits`.
-#[inline(always)]
-fn take_block(
-    integrator: &Integrator,
-    kinds: &[BlockKind],
-    (blocks, block_hits, mirrors): (&mut Vec<QuadBlock>, &mut Vec<(u32, Aabb)>, &mut Vec<MirrorBlock>),
-    first: usize,
-    rays: &[(Ray, Option<(Hit, u32)>)],
-    hits: &Best8,
-) -> bool {
-    if let Some(block) = integrator.mirror_block(first as u32, rays, hits, kinds) {
-        mirrors.push(block);
-        return true;
-    }
-    let Some((block, bounds)) = integrator.quad_block(first as u32, rays, hits, kinds) else {
-        return false;
-    };
-    merge_box(block_hits, (block.object(), bounds));
-    blocks.push(block);
-    true
-}
-
-/// `run`, a box round hits on one object, merged into that object's box in `hits`.
-fn merge_box(hits: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)) {
-    if let Some((o, b)) = hits.last_mut()
-        && *o == i
-    {
-        *b = b.union(run);
-        return;
-    }
-    match hits.iter_mut().find(|(o, _)| *o == i) {
-        Some((_, b)) => *b = b.union(run),
-        None => hits.push((i, run)),
-    }
-}
-
-/// The surfaces hit by the rays of `buf.found` from node `from` on, into `buf.surfaces`,
-/// and, per object hit, a box round its hit points, into `buf.hits`.
-#[inline(never)]
-fn surfaces_hit(integrator: &Integrator, buf: &mut TileBuffers, from: usize) {
-    let TileBuffers { found, surfaces, hits, .. } = buf;
-    hits.clear();
-    surfaces.resize(found.len(), PackedSurface::default());
-    // Hits come in runs on one object: each run's box is grown on its own, then merged.
-    let mut run: Option<(u32, Aabb)> = None;
-    for (k, (ray, hit)) in found.iter().enumerate().skip(from) {
-        if let Some((h, i)) = hit {
-            surfaces[k] = integrator.surface(ray, h, *i);
-            let p = ray.at(h.t);
-            match &mut run {
-                Some((o, b)) if o == i => *b = b.grow(p),
-                _ => {
-                    if let Some(done) = run.replace((*i, Aabb::EMPTY.grow(p))) {
-                        merge_box(hits, done);
-                    }
-                }
-            }
-        }
-    }
-    if let Some(done) = run {
-        merge_box(hits, done);
-    }
-}
-
 /// A configured render of one scene. Settings start from the scene's own and can be
 /// overridden one by one.
 #[derive(Clone, Debug)]
@@ -176,6 +98,7 @@ pub struct Renderer<'s> {
     accel: AccelKind,
     corners: bool,
     one_sided: bool,
+    cutoff: f32,
 }
 
 /// What a render produced.
@@ -209,6 +132,7 @@ impl<'s> Renderer<'s> {
             accel: AccelKind::default(),
             corners: false,
             one_sided: false,
+            cutoff: scene.settings.cutoff,
         })
     }
 
@@ -231,10 +155,18 @@ impl<'s> Renderer<'s> {
     /// is 1), corner sampling, one-sided opaque surfaces and no shadow ray towards a
     /// light the shading normal faces away from. The rest of its rules (a reflection ray
     /// from every reflective hit and a refraction ray from every transmitting one, or a
-    /// reflection ray on total internal reflection, with no adaptive cut-off; smooth
-    /// patches; Phong highlights) are how this tracer always works.
+    /// reflection ray on total internal reflection; smooth patches; Phong highlights)
+    /// are how this tracer always works, and its rule of no adaptive cut-off sets the
+    /// cutoff to 0.
     pub fn spd_rules(self) -> Self {
-        self.max_depth(5).corner_sampling(true).one_sided(true)
+        self.max_depth(5).corner_sampling(true).one_sided(true).cutoff(0.0)
+    }
+
+    /// A ray whose share of its pixel falls below `cutoff` is not followed (the
+    /// scene's `cutoff` setting by default; 0 follows every ray to the depth limit).
+    pub fn cutoff(mut self, cutoff: f32) -> Self {
+        self.cutoff = cutoff;
+        self
     }
 
     pub fn size(mut self, width: u32, height: u32) -> Self {
@@ -330,7 +262,7 @@ impl<'s> Renderer<'s> {
         camera.width = self.width;
         camera.height = self.height;
         let rig = camera.rig().expect("checked in Renderer::new and Renderer::camera");
-        let integrator = Integrator::new(world, self.max_depth).one_sided(self.one_sided);
+        let integrator = Integrator::new(world, self.max_depth).one_sided(self.one_sided).cutoff(self.cutoff);
         if self.corners {
             return self.render_corners(&rig, &integrator, progress, cancel, start);
         }
@@ -341,7 +273,6 @@ impl<'s> Renderer<'s> {
         let mut image = Image::new(self.width, self.height);
         let workers = rayon::current_num_threads().min(total);
         let queue = TileQueue::new(total, workers);
-        let kinds: Vec<BlockKind> = (0..self.scene.objects.len() as u32).map(|i| integrator.block_kind(i)).collect();
         // A tile writes its pixels into its band of TILE rows, locked only for the copy;
         // a worker keeps its buffers for all the tiles it takes.
         let bands: Vec<Mutex<&mut [Color]>> =
@@ -357,7 +288,7 @@ impl<'s> Renderer<'s> {
                     }
                     let (x0, y0) = ((i % tiles_x) as u32 * TILE, (i / tiles_x) as u32 * TILE);
                     let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
-                    self.render_tile(world, &rig, &integrator, &kinds, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    self.render_tile(&rig, &integrator, (x0, y0, x1, y1), &mut tile, &mut stats);
                     let mut rows = bands[i / tiles_x].lock().unwrap_or_else(|e| e.into_inner());
                     for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
                         let at = y * width + x0 as usize;
@@ -384,206 +315,48 @@ impl<'s> Renderer<'s> {
     }
 
     /// Traces the pixels of one tile, `(x0, y0)` to `(x1, y1)` exclusive, into
-    /// `buf.pixels` row by row. Blocks of eight rays on one object of a kind in `kinds`
-    /// ([`Integrator::block_kind`]) are handled together.
-    #[allow(clippy::too_many_arguments)]
+    /// `buf.pixels` row by row: their samples in reading order, in waves of at most
+    /// [`WAVE_RAYS`] camera rays, each with the cone of the rows it covers.
     fn render_tile(
         &self,
-        world: &World,
         rig: &CameraRig,
         integrator: &Integrator,
-        kinds: &[BlockKind],
         (x0, y0, x1, y1): (u32, u32, u32, u32),
         buf: &mut TileBuffers,
         stats: &mut RayStats,
     ) {
-        let TileBuffers { pixels, samples, points, found, seen, blocks, block_hits, mirrors, .. } = buf;
+        let TileBuffers { pixels, samples, points, rays, colors, wave } = buf;
         pixels.clear();
-        found.clear();
         points.clear();
+        let mut sum = PixelSum::default();
+        // The first row of the wave being gathered.
+        let mut top = y0;
+        let mut trace = |points: &mut Vec<Vec2>, rows: (u32, u32), pixels: &mut Vec<Color>| {
+            rays.clear();
+            rig.rays(points, |ray| rays.push(ray));
+            let cone = rig.cone(x0 as f32, rows.0 as f32, x1 as f32, rows.1 as f32);
+            wave.trace(integrator, rays, Some(cone), colors, stats);
+            sum.add(colors, self.spp, pixels);
+            points.clear();
+        };
         for y in y0..y1 {
             for x in x0..x1 {
                 // One sample needs no random numbers: it goes through the pixel centre.
                 if self.spp > 1 || samples.is_empty() {
                     pixel_samples(self.spp, &mut Rng::for_pixel(x, y, 0), samples);
                 }
-                points.extend(samples.iter().map(|s| Vec2::new(x as f32 + s.x, y as f32 + s.y)));
-            }
-        }
-        rig.rays(points, |ray| found.push((ray, None)));
-        // In a small scene the tile's camera rays test only the objects its cone of
-        // rays meets (samples stay inside their pixels), and their hits are all found
-        // first, so that the shadow rays from them test only the objects that can stand
-        // between those hits and each light.
-        let (apex, edges) = rig.cone(x0 as f32, y0 as f32, x1 as f32, y1 as f32);
-        let culled = world.seen_from(apex, edges, seen);
-        let camera_rays = found.len();
-        if culled {
-            blocks.clear();
-            block_hits.clear();
-            mirrors.clear();
-            world.closest_among_each_or(seen, found, |first, rays, hits| {
-                take_block(integrator, kinds, (blocks, block_hits, mirrors), first, rays, hits)
-            });
-            self.trace_ahead(world, integrator, kinds, buf, stats);
-        }
-        let TileBuffers { pixels, samples, found, next, surfaces, lit, colors, blocks, block_colors, .. } = buf;
-        let n = samples.len();
-        if culled {
-            let traced = Traced { nodes: found, surfaces, next, lit, blocks, block_colors };
-            integrator.shade_traced(&traced, colors, stats);
-            stats.primary += camera_rays as u64;
-            if n == 1 {
-                // Each pixel is its one sample: the camera rays' colours as they are.
-                std::mem::swap(pixels, colors);
-                pixels.truncate(camera_rays);
-            } else {
-                average(&colors[..camera_rays], n, pixels);
-            }
-        } else {
-            colors.clear();
-            colors.extend(found.iter().map(|(ray, _)| integrator.trace_primary(ray, stats)));
-            average(colors, n, pixels);
-        }
-    }
-
-    /// For a culled tile whose camera rays' hits are found (`buf.found`): level by level,
-    /// the surfaces hit, the objects that may shadow them, the lights as they see them
-    /// ([`Renderer::look_at_lights`]), and the rays they send on with what those hit
-    /// ([`Renderer::send_on`]), until no rays are sent or the depth limit is reached.
-    fn trace_ahead(
-        &self,
-        world: &World,
-        integrator: &Integrator,
-        kinds: &[BlockKind],
-        buf: &mut TileBuffers,
-        stats: &mut RayStats,
-    ) {
-        buf.next.clear();
-        buf.next.resize(buf.found.len(), [NONE; 2]);
-        buf.surfaces.clear();
-        buf.lit.clear();
-        // One-sided shading may send a shadow ray from a surface's back through the
-        // surface itself, which the culling assumes it does not.
-        let lights = if self.one_sided { &[][..] } else { &self.scene.lights[..] };
-        buf.block_colors.clear();
-        let (mut level, mut depth, mut mirrors_done) = (0..buf.found.len(), 1u32, 0);
-        loop {
-            // The level's mirror blocks, taken when its rays' hits were found.
-            let mirrors = mirrors_done..buf.mirrors.len();
-            mirrors_done = mirrors.end;
-            surfaces_hit(integrator, buf, level.start);
-            let TileBuffers { hits, blockers, blocks, block_hits, block_colors, .. } = &mut *buf;
-            // The level's hits shaded in lanes may be shadowed by what the others may.
-            for &run in &*block_hits {
-                merge_box(hits, run);
-            }
-            block_hits.clear();
-            // Kept from tile to tile, to allocate nothing.
-            blockers.resize_with(lights.len(), || None);
-            for (b, l) in blockers.iter_mut().zip(lights) {
-                let mut few = b.take().unwrap_or_default();
-                *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
-            }
-            // The level's blocks: those after the ones shaded already.
-            integrator.shade_blocks(&blocks[block_colors.len()..], blockers, block_colors, stats);
-            self.look_at_lights(integrator, buf, level.clone());
-            if depth >= self.max_depth {
-                // The level's mirror blocks get their hits back; they send nothing on.
-                let TileBuffers { found, sent, mirrors: taken, .. } = &mut *buf;
-                for block in &taken[mirrors] {
-                    integrator.mirror_rays(block, found, depth, sent, stats);
-                }
-                break;
-            }
-            match self.send_on(world, integrator, kinds, buf, (level, mirrors), depth, stats) {
-                Some(next_level) => (level, depth) = (next_level, depth + 1),
-                None => break,
-            }
-        }
-    }
-
-    /// Each light as the hits of nodes `level` see it, into `buf.lit`, the shadow rays
-    /// to it tested together against the objects that may shadow them (`buf.blockers`).
-    #[inline(never)]
-    fn look_at_lights(&self, integrator: &Integrator, buf: &mut TileBuffers, level: std::ops::Range<usize>) {
-        let TileBuffers { found, surfaces, blockers, lit, frames, .. } = buf;
-        let lights = self.scene.lights.len();
-        lit.resize(found.len() * lights, Lit::default());
-        frames.clear();
-        for k in level {
-            if let (ray, Some((_, index))) = &found[k]
-                && integrator.may_light(*index)
-            {
-                frames.push(k as u32, integrator.light_frame(ray, &surfaces[k].get(), *index));
-            }
-        }
-        for i in 0..lights {
-            integrator.look_at_light(frames, i, blockers.get(i).and_then(|b| b.as_deref()), lit);
-        }
-    }
-
-    /// The rays the hits of nodes `level` (at `depth`) send on, appended to `buf.found`
-    /// grouped by the object they leave and how (reflected or transmitted), linked by
-    /// `buf.next` and counted in `stats`, with what they hit: a group of four or more
-    /// tested only against what it may meet ([`World::seen_along`]), eight at a time,
-    /// blocks of eight on one object of a kind in `kinds` taken to be handled together.
-    /// The level's mirror blocks (`buf.mirrors[mirrors]`) get their hits back and send
-    /// their rays with the rest. Returns the new nodes, if any.
-    #[inline(never)]
-    #[allow(clippy::too_many_arguments)]
-    fn send_on(
-        &self,
-        world: &World,
-        integrator: &Integrator,
-        kinds: &[BlockKind],
-        buf: &mut TileBuffers,
-        (level, mirrors): (std::ops::Range<usize>, std::ops::Range<usize>),
-        depth: u32,
-        stats: &mut RayStats,
-    ) -> Option<std::ops::Range<usize>> {
-        let TileBuffers { found, next, surfaces, seen, sent, blocks, block_hits, mirrors: taken, .. } = buf;
-        sent.clear();
-        for k in level {
-            if let (ray, Some((_, i))) = &found[k]
-                && integrator.sends(*i, depth)
-            {
-                let rays = integrator.sent_on(ray, &surfaces[k].get(), *i, depth, stats);
-                for (slot, r) in rays.into_iter().enumerate() {
-                    if let Some(r) = r {
-                        sent.push(((*i, slot as u32), k as u32, r));
+                for s in samples.iter() {
+                    points.push(Vec2::new(x as f32 + s.x, y as f32 + s.y));
+                    if points.len() == WAVE_RAYS {
+                        trace(points, (top, y + 1), pixels);
+                        top = y;
                     }
                 }
             }
         }
-        for block in &taken[mirrors] {
-            integrator.mirror_rays(block, found, depth, sent, stats);
+        if !points.is_empty() {
+            trace(points, (top, y1), pixels);
         }
-        if sent.is_empty() {
-            return None;
-        }
-        sent.sort_by_key(|&(group, ..)| group);
-        let start = found.len();
-        for (j, &((_, slot), parent, ray)) in sent.iter().enumerate() {
-            next[parent as usize][slot as usize] = (start + j) as u32;
-            found.push((ray, None));
-            next.push([NONE; 2]);
-        }
-        let mut at = start;
-        for group in sent.chunk_by(|a, b| a.0 == b.0) {
-            let (first, rays) = (at, &mut found[at..at + group.len()]);
-            at += group.len();
-            if rays.len() >= 4 && world.seen_along(rays, seen) {
-                world.closest_among_each_or(seen, rays, |k, rays, hits| {
-                    take_block(integrator, kinds, (blocks, block_hits, taken), first + k, rays, hits)
-                });
-            } else {
-                for (ray, hit) in rays {
-                    *hit = world.closest(ray, 0.0, f32::INFINITY);
-                }
-            }
-        }
-        Some(start..found.len())
     }
 
     /// Corner sampling: rows of corner rays traced in parallel, each ray once, then
@@ -601,15 +374,24 @@ impl<'s> Renderer<'s> {
         let done = std::sync::atomic::AtomicUsize::new(0);
         let rows: Vec<(Vec<Color>, RayStats)> = (0..=h)
             .into_par_iter()
-            .map(|y| {
-                if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                    return None;
-                }
-                let mut stats = RayStats::default();
-                let row = (0..=w).map(|x| integrator.trace_primary(&rig.ray(x as f32, y as f32), &mut stats)).collect();
-                progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
-                Some((row, stats))
-            })
+            .map_init(
+                || (Wave::default(), Vec::new(), Vec::new()),
+                |(wave, rays, colors), y| {
+                    if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                        return None;
+                    }
+                    let mut stats = RayStats::default();
+                    let mut row = Vec::with_capacity(w as usize + 1);
+                    for xs in (0..=w).collect::<Vec<_>>().chunks(WAVE_RAYS) {
+                        rays.clear();
+                        rays.extend(xs.iter().map(|&x| rig.ray(x as f32, y as f32)));
+                        wave.trace(integrator, rays, None, colors, &mut stats);
+                        row.extend_from_slice(colors);
+                    }
+                    progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
+                    Some((row, stats))
+                },
+            )
             .collect::<Option<_>>()?;
         let mut image = Image::new(w, h);
         let mut stats = RayStats::default();
@@ -775,70 +557,10 @@ mod tests {
         assert!(world.seen_from(apex, edges, &mut Vec::new()));
     }
 
-    /// A room of matte quads of every solid-space texture, seen straight and in a
-    /// mirror, shadowed through glass, under two lights: blocks of eight hits on one
-    /// quad are shaded in lanes, and must shade what tracing ray by ray does.
-    #[test]
-    fn blocks_shaded_in_lanes_match_tracing_ray_by_ray() {
-        let mut scene =
-            Scene::new(Camera::new(Vec3::new(0.3, 0.5, 4.0), Vec3::new(0.0, 0.0, -3.0), Vec3::Y, 70.0, 64, 48));
-        let stripes = Texture::Stripes {
-            axis: Vec3::Z,
-            width: 0.7,
-            colors: [Color::new(1.0, 1.0, 0.5), Color::new(0.0, 1.0, 0.0)],
-        };
-        let checker =
-            Texture::Checker { size: 0.5, offset: Vec3::new(0.0, 0.25, 0.0), colors: [Color::ZERO, Color::splat(0.9)] };
-        let floor = scene.add_material(Material::textured(stripes).matte());
-        let back = scene.add_material(Material::textured(checker).matte());
-        let side = scene.add_material(Material::color(Color::new(0.0, 0.5, 1.0)).matte());
-        let mirror = scene.add_material(Material::color(Color::splat(0.5)).reflective(1.0).matte());
-        let glass = scene.add_material(Material::color(Color::new(1.0, 0.2, 0.2)).transparent(0.7, 1.0));
-        let quad = |c: [f32; 3], u: [f32; 3], v: [f32; 3]| Quad::new(Vec3::from(c), Vec3::from(u), Vec3::from(v));
-        scene.add(quad([-4.0, -1.5, 5.0], [8.0, 0.0, 0.0], [0.0, 0.0, -11.0]), floor);
-        scene.add(quad([-4.0, -1.5, -6.0], [8.0, 0.0, 0.0], [0.0, 6.0, 0.0]), back);
-        scene.add(quad([-4.0, -1.5, -6.0], [0.0, 6.0, 0.0], [0.0, 0.0, 11.0]), side);
-        scene.add(quad([4.0, -1.5, -6.0], [0.0, 0.0, 11.0], [0.0, 6.0, 0.0]), mirror);
-        scene.add(Sphere::new(Vec3::new(-0.5, 0.0, -2.5), 1.0), glass);
-        scene.add_light(PointLight::new(Vec3::new(1.0, 3.5, 0.0), Color::splat(0.7)));
-        scene.add_light(PointLight::new(Vec3::new(-3.0, 2.0, 2.0), Color::new(0.3, 0.3, 0.2)));
-        let render = |accel| Renderer::new(&scene).unwrap().threads(2).accel(accel).render_with_progress(&|_, _| {});
-        let (lanes, by_ray) = (render(AccelKind::Bvh), render(AccelKind::None));
-        assert_eq!(lanes.stats, by_ray.stats);
-        assert!(lanes.image == by_ray.image);
-        // Where the processor has AVX2, the tiles take camera rays as blocks of both kinds.
-        let world = World::new(&scene, AccelKind::Bvh);
-        let integrator = Integrator::new(&world, scene.settings.max_depth);
-        let kinds: Vec<BlockKind> = (0..scene.objects.len() as u32).map(|i| integrator.block_kind(i)).collect();
-        use BlockKind::{Matte, Mirror};
-        assert_eq!(kinds, [Matte, Matte, Matte, Mirror, BlockKind::None]);
-        let rig = scene.camera.rig().unwrap();
-        let (mut blocks, mut boxes, mut mirrors, mut seen) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        for (x, y) in (0..3).flat_map(|y| (0..4).map(move |x| (16 * x, 16 * y))) {
-            let (apex, edges) = rig.cone(x as f32, y as f32, (x + 16) as f32, (y + 16) as f32);
-            assert!(world.seen_from(apex, edges, &mut seen));
-            let mut found = Vec::new();
-            let points: Vec<Vec2> =
-                (y..y + 16).flat_map(|y| (x..x + 16).map(move |x| Vec2::new(x as f32 + 0.5, y as f32 + 0.5))).collect();
-            rig.rays(&points, |ray| found.push((ray, None)));
-            let (taken, mine) = (blocks.len() + mirrors.len(), blocks.len());
-            world.closest_among_each_or(&seen, &mut found, |first, rays, hits| {
-                take_block(&integrator, &kinds, (&mut blocks, &mut boxes, &mut mirrors), first, rays, hits)
-            });
-            // Blocks taken are left without hits (so are rays into the open).
-            let left = found.iter().filter(|(_, hit)| hit.is_none()).count();
-            assert!(left >= 8 * (blocks.len() + mirrors.len() - taken), "tile at ({x}, {y})");
-            assert!(blocks[mine..].iter().all(|b| found[b.node()..b.node() + 8].iter().all(|(_, hit)| hit.is_none())));
-        }
-        if std::is_x86_feature_detected!("avx2") {
-            assert!(blocks.len() >= 40 && mirrors.len() >= 4, "{} and {} blocks", blocks.len(), mirrors.len());
-        }
-    }
-
     #[test]
     fn spd_rules_limit_the_depth_to_five() {
         let scene = ball();
         let r = Renderer::new(&scene).unwrap().spd_rules();
-        assert_eq!((r.max_depth, r.corners, r.one_sided), (5, true, true));
+        assert_eq!((r.max_depth, r.corners, r.one_sided, r.cutoff), (5, true, true, 0.0));
     }
 }

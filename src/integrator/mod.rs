@@ -1,13 +1,21 @@
-//! The Whitted trace function: local Phong shading from every light with shadows that
-//! pass through transparent objects, then recursion for mirror reflection and for
-//! transmission (straight through, or bent by Snell's law, or totally reflected).
+//! The Whitted integrator: local Phong shading from every light with shadows that pass
+//! through transparent objects, plus mirror reflection and transmission (straight
+//! through, bent by Snell's law, or totally reflected).
+//!
+//! One ray's way: [`Wave`] takes a batch of camera rays level by level (every ray of a
+//! level asks the [`World`] for its hit together with the others, so the acceleration
+//! structure can answer them as a batch), and past a per-sample budget a ray's subtree
+//! is traced depth first by [`Integrator::trace_path`]. Both shade a hit with the same
+//! three steps, [`Integrator::shading`], [`Integrator::add_light`] per light and
+//! [`Integrator::own_color`], and send rays on with [`Integrator::scatter`]. Colours
+//! flow forward: each ray carries the share of its sample's colour it brings back
+//! (its weight), so nothing waits for its children and memory does not grow with depth.
 
-mod blocks;
 mod stats;
-
-pub use blocks::{BlockKind, MirrorBlock, QuadBlock};
+mod wave;
 
 pub use stats::RayStats;
+pub use wave::{PER_SAMPLE, WAVE_RAYS, Wave};
 
 use crate::accel::World;
 use crate::geometry::{Hit, Surface};
@@ -19,8 +27,9 @@ use glam::Vec4;
 /// The index of refraction of the space between objects.
 pub const OUTSIDE_IOR: f32 = 1.0;
 
-/// No node: where [`Traced::next`] has no ray.
-pub const NONE: u32 = u32::MAX;
+/// A ray's share of its pixel below which it is not followed, by default: POV-Ray's
+/// `adc_bailout`, one level of an 8-bit channel.
+pub const DEFAULT_CUTOFF: f32 = 1.0 / 255.0;
 
 /// Traces rays through a [`World`].
 #[derive(Clone, Copy, Debug)]
@@ -30,12 +39,62 @@ pub struct Integrator<'w, 's> {
     background: Color,
     ambient: f32,
     one_sided: bool,
+    cutoff: f32,
+}
+
+/// A ray on its way: the share of its sample's colour it brings back (`weight`, the
+/// product of the reflected and transmitted shares along its chain) and its place in
+/// the chain (the camera ray is 1).
+#[derive(Clone, Copy, Debug)]
+pub struct Path {
+    pub ray: Ray,
+    pub weight: Color,
+    pub depth: u32,
+}
+
+impl Path {
+    pub fn camera(ray: Ray) -> Path {
+        Path { ray, weight: Color::ONE, depth: 1 }
+    }
+}
+
+/// How a ray continues from a hit ([`Integrator::scatter`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sent {
+    Reflected,
+    Refracted,
+    TotalInternalReflection,
+}
+
+/// A hit being shaded: what the lights need, found once, and the light gathered so
+/// far ([`Integrator::shading`], [`Integrator::add_light`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Shading {
+    /// The surface's colour there (texture looked up).
+    pub base: Color,
+    /// Where shadow rays leave from: just off the surface on the ray's side.
+    pub from: Vec3,
+    /// The normal lights are judged by.
+    pub n: Vec3,
+    /// Whether lights can change the colour (else no shadow rays are needed).
+    pub lit: bool,
+    /// Whether the surface shows anything of its own (a perfect mirror does not).
+    pub own: bool,
+    pub diffuse: Color,
+    pub specular: Color,
 }
 
 impl<'w, 's> Integrator<'w, 's> {
     pub fn new(world: &'w World<'s>, max_depth: u32) -> Self {
         let s = &world.scene().settings;
-        Integrator { world, max_depth, background: s.background, ambient: s.ambient, one_sided: false }
+        Integrator {
+            world,
+            max_depth,
+            background: s.background,
+            ambient: s.ambient,
+            one_sided: false,
+            cutoff: s.cutoff,
+        }
     }
 
     /// Shade opaque surfaces one-sided, as the SPD benchmark allows (its rule 2): with
@@ -48,57 +107,75 @@ impl<'w, 's> Integrator<'w, 's> {
         self
     }
 
+    /// Rays whose share of their pixel (largest channel) falls below `cutoff` are not
+    /// followed; 0 follows every ray to the depth limit.
+    pub fn cutoff(mut self, cutoff: f32) -> Self {
+        self.cutoff = cutoff;
+        self
+    }
+
+    pub fn world(&self) -> &'w World<'s> {
+        self.world
+    }
+
+    pub fn background(&self) -> Color {
+        self.background
+    }
+
+    #[inline(always)]
+    fn material(&self, index: u32) -> &'s Material {
+        let scene = self.world.scene();
+        scene.material(scene.objects[index as usize].material)
+    }
+
     /// The colour seen along a camera ray.
     pub fn trace_primary(&self, ray: &Ray, stats: &mut RayStats) -> Color {
         stats.primary += 1;
-        self.trace(ray, 1, stats)
+        self.trace_path(Path::camera(*ray), &mut Vec::new(), stats)
     }
 
-    /// The colours seen along every ray of `traced`, into `colors` (node `k`'s at `k`):
-    /// [`Integrator::trace`]'s colours, the same to the bit, for rays whose hits, surfaces,
-    /// lights and rays sent on were all found ahead. Each node's own share first, in one
-    /// flat pass whose nodes do not wait on each other, then, from the last level up, what
-    /// its reflected and transmitted rays bring, in the order `shade` adds them.
-    pub fn shade_traced(&self, traced: &Traced, colors: &mut Vec<Color>, stats: &mut RayStats) {
-        let scene = self.world.scene();
-        let lights = scene.lights.len();
-        colors.clear();
-        colors.extend(traced.nodes.iter().enumerate().map(|(k, (ray, found))| {
-            let Some((_, index)) = found else {
-                return self.background;
-            };
-            let material = scene.material(scene.objects[*index as usize].material);
-            let surface = traced.surfaces[k].get();
-            self.local(ray, &surface, *index, material, |i, _, _, _| {
-                let lit = &traced.lit[k * lights + i];
-                // Counted as `shade` counts: each light in front of the surface.
-                (lit.n_dot_l > 0.0).then(|| {
-                    stats.shadow += 1;
-                    (lit.l, lit.n_dot_l, lit.visible)
-                })
-            })
-        }));
-        for (block, rows) in traced.blocks.iter().zip(traced.block_colors) {
-            for (lane, c) in colors[block.node()..block.node() + 8].iter_mut().enumerate() {
-                *c = Color::new(rows[0][lane], rows[1][lane], rows[2][lane]);
-            }
-        }
-        for k in (0..colors.len()).rev() {
-            let [r, t] = traced.next[k];
-            if r == NONE && t == NONE {
+    /// The colour seen along `ray`, the `depth`-th ray of its chain.
+    pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
+        self.trace_path(Path { ray: *ray, weight: Color::ONE, depth }, &mut Vec::new(), stats)
+    }
+
+    /// The colour `path` brings back, weight included: its ray and every ray it sends
+    /// on, one at a time, depth first. `stack` holds the rays waiting (at most one per
+    /// level beyond the first): no recursion, so no depth limit or index of refraction
+    /// can overflow the thread's stack.
+    pub fn trace_path(&self, path: Path, stack: &mut Vec<Path>, stats: &mut RayStats) -> Color {
+        let lights = &self.world.scene().lights;
+        let mut color = Color::ZERO;
+        let bottom = stack.len();
+        stack.push(path);
+        while stack.len() > bottom {
+            let p = stack.pop().expect("above bottom");
+            let Some((hit, index)) = self.world.closest(&p.ray, 0.0, f32::INFINITY) else {
+                color += p.weight * self.background;
                 continue;
+            };
+            let surface = self.surface(&p.ray, &hit, index).get();
+            let material = self.material(index);
+            let mut shading = self.shading(&p.ray, &surface, index);
+            if shading.lit {
+                for light in lights {
+                    let (l, distance, n_dot_l) = towards(light.position, shading.from, shading.n);
+                    if n_dot_l > 0.0 {
+                        stats.shadow += 1;
+                        let visible = self.world.transmittance(&Ray { origin: shading.from, dir: l }, distance);
+                        self.add_light(&mut shading, material, p.ray.dir, (l, n_dot_l, visible), light);
+                    }
+                }
             }
-            let Some((_, index)) = traced.nodes[k].1 else { continue };
-            let material = scene.material(scene.objects[index as usize].material);
-            let mut color = colors[k];
-            if r != NONE {
-                color += material.reflectivity * colors[r as usize];
+            color += p.weight * self.own_color(&shading, material);
+            // The transmitted ray waits under the reflected one, which goes first.
+            let [r, t] = self.scatter(&p, &surface, index);
+            for (child, kind) in [t, r].into_iter().flatten() {
+                stats.count(kind);
+                stack.push(child);
             }
-            if t != NONE {
-                color += material.transparency * colors[t as usize];
-            }
-            colors[k] = color;
         }
+        color
     }
 
     /// The surface that shading sees where `ray` hit object `index`.
@@ -109,226 +186,100 @@ impl<'w, 's> Integrator<'w, 's> {
         object.shape.surface_as(ray, hit, scene.material(object.material).texture.uses_uv())
     }
 
-    /// The normal lights are judged by at a hit on object `index`: `side`, the normal on
-    /// the ray's side, unless shading one-sided.
+    /// Step one of shading a hit of `ray` on object `index` at `surface`: the colour
+    /// there, where shadow rays leave from and the normal lights are judged by.
     #[inline(always)]
-    fn light_normal(&self, surface: &Surface, side: Vec3, index: u32) -> Vec3 {
-        let scene = self.world.scene();
-        let material = scene.material(scene.objects[index as usize].material);
-        if self.one_sided && material.transparency == 0.0 { surface.normal } else { side }
+    pub fn shading(&self, ray: &Ray, surface: &Surface, index: u32) -> Shading {
+        let material = self.material(index);
+        let (side, from) = leaving(ray, surface);
+        let n = if self.one_sided && material.transparency == 0.0 { surface.normal } else { side };
+        // A surface with no own share and no highlight (a perfect mirror) shows nothing
+        // the lights could change: no texture lookup, no shadow rays.
+        let own = material.local_share() != 0.0 || material.specular > 0.0;
+        if !own {
+            return Shading { from, n, ..Shading::default() };
+        }
+        let base = material.texture.color(surface.point, surface.uv);
+        // Lights act through the diffuse term and the highlight only: a black texel
+        // without a highlight needs no shadow rays.
+        let lit = material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0);
+        Shading { base, from, n, lit, own, diffuse: Color::ZERO, specular: Color::ZERO }
     }
 
-    /// Whether shading a hit on object `index` may look at the lights (a superset of
-    /// where [`Integrator::shade`] does: it also skips black texels).
-    #[inline]
-    pub fn may_light(&self, index: u32) -> bool {
-        let scene = self.world.scene();
-        let m = scene.material(scene.objects[index as usize].material);
-        // A highlight, or an own share with a diffuse term: `local` then looks at them.
-        m.specular > 0.0 || (m.local_share() != 0.0 && m.diffuse != 0.0)
-    }
-
-    /// Where a hit of `ray` on object `index` at `surface` sends its shadow rays from,
-    /// and the normal the lights are judged by there: the same for every light.
-    #[inline]
-    pub fn light_frame(&self, ray: &Ray, surface: &Surface, index: u32) -> (Vec3, Vec3) {
-        let (side, lit_from) = leaving(ray, surface);
-        (lit_from, self.light_normal(surface, side, index))
-    }
-
-    /// Light `i` as the hits of `frames` see it, into `lit` (node `k`'s at
-    /// `k * lights + i`): the direction and cosine of eight hits at a time
-    /// ([`towards_lanes`]), then what their shadow rays let through, tested together
-    /// against objects `blockers` only where given ([`World::may_shadow`]), else against
-    /// the whole world. Shadow rays go only where the cosine is positive.
-    pub fn look_at_light(&self, frames: &LightFrames, i: usize, blockers: Option<&[u32]>, lit: &mut [Lit]) {
-        let lights = self.world.scene().lights.len();
-        let position = self.world.scene().lights[i].position;
-        for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
-            let seen = towards_lanes(position, from, normal);
-            let mut live = 0u32;
-            for lane in 0..nodes.len() {
-                live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
-            }
-            let visible = self.visible_lanes(blockers, from, &seen, live);
-            // Both paths leave the lanes facing away at 0.
-            for (lane, &k) in nodes.iter().enumerate() {
-                let (l, n_dot_l, visible) = (lane_of(&seen.l, lane), seen.n_dot_l[lane], visible[lane]);
-                lit[k as usize * lights + i] = Lit { l, n_dot_l, visible };
+    /// Step two, once per light in front of the surface: its diffuse term and highlight,
+    /// given its unit direction `l`, the cosine `n_dot_l` (positive) and the share of it
+    /// that reaches the surface (`visible`: what its shadow ray lets through).
+    #[inline(always)]
+    pub fn add_light(
+        &self,
+        shading: &mut Shading,
+        material: &Material,
+        view: Vec3,
+        (l, n_dot_l, visible): (Vec3, f32, f32),
+        light: &PointLight,
+    ) {
+        if visible == 0.0 {
+            return;
+        }
+        shading.diffuse += (visible * material.diffuse * n_dot_l) * shading.base * light.color;
+        if material.specular > 0.0 {
+            let r_dot_v = reflect(-l, shading.n).dot(-view);
+            if r_dot_v > 0.0 {
+                shading.specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
             }
         }
     }
 
-    /// What the shadow rays from eight points `from` towards a light (`seen`) let
-    /// through, in the lanes `live` (0 in the others): tested together against objects
-    /// `blockers` only where given ([`World::may_shadow`]), else against the whole world.
+    /// Step three: the hit's own colour, `(1 − ρ − τ)·(ambient + diffuse) + specular`,
+    /// the original's blending rules (ρ reflectivity, τ transparency); the highlight is
+    /// added last, unscaled, as in the original. What the reflected and transmitted
+    /// rays bring comes through their weights ([`Integrator::scatter`]).
     #[inline(always)]
-    fn visible_lanes(&self, blockers: Option<&[u32]>, from: &[[f32; 8]; 3], seen: &Towards8, live: u32) -> [f32; 8] {
-        match blockers {
-            Some(ids) => self.world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
-            None => {
-                // The live lanes' rays, side by side, then their answers back in lane.
-                let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
-                for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
-                    let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
-                    (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
-                }
-                let mut light = [0.0; 8];
-                self.world.transmittance_each(&rays[..n], &mut light[..n]);
-                let mut visible = [0.0; 8];
-                for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
-                    visible[lane] = light;
-                }
-                visible
-            }
+    pub fn own_color(&self, shading: &Shading, material: &Material) -> Color {
+        if !shading.own {
+            return Color::ZERO;
         }
+        material.local_share() * (self.ambient * shading.base + shading.diffuse) + shading.specular
     }
 
     /// Whether a hit on object `index` by the `depth`-th ray of a chain sends rays on.
     #[inline]
     pub fn sends(&self, index: u32, depth: u32) -> bool {
-        let scene = self.world.scene();
-        let material = scene.material(scene.objects[index as usize].material);
+        let material = self.material(index);
         depth < self.max_depth && (material.reflectivity > 0.0 || material.transparency > 0.0)
     }
 
-    /// The rays that a hit of `ray` on object `index` (at `surface`), the `depth`-th
-    /// ray of its chain, sends on, reflected and transmitted, as [`Integrator::shade`]
-    /// does, and counted in `stats` as there.
+    /// The rays a hit of `path` on object `index` (at `surface`) sends on, reflected
+    /// and transmitted, each with its weight: the path's times the material's share.
+    /// A ray whose weight falls below the cutoff, or past the depth limit, is not sent.
     #[inline]
-    pub fn sent_on(
-        &self,
-        ray: &Ray,
-        surface: &Surface,
-        index: u32,
-        depth: u32,
-        stats: &mut RayStats,
-    ) -> [Option<Ray>; 2] {
-        if !self.sends(index, depth) {
+    pub fn scatter(&self, path: &Path, surface: &Surface, index: u32) -> [Option<(Path, Sent)>; 2] {
+        if !self.sends(index, path.depth) {
             return [None, None];
         }
-        let scene = self.world.scene();
-        let material = scene.material(scene.objects[index as usize].material);
-        let (side, lit_from) = leaving(ray, surface);
-        let reflected = (material.reflectivity > 0.0).then(|| {
-            stats.reflection += 1;
-            reflected(ray, side, lit_from)
-        });
-        let transmitted = (material.transparency > 0.0).then(|| {
-            let (t, kind) = transmitted_ray(ray, surface, material.ior);
-            match kind {
-                Transmission::Refracted => stats.refraction += 1,
-                Transmission::TotalInternalReflection => stats.reflection += 1,
-            }
-            t
-        });
+        let material = self.material(index);
+        let depth = path.depth + 1;
+        let worth = |w: Color| !(w.max_element() < self.cutoff);
+        let reflected = (material.reflectivity > 0.0)
+            .then(|| path.weight * material.reflectivity)
+            .filter(|&w| worth(w))
+            .map(|weight| {
+                let (side, from) = leaving(&path.ray, surface);
+                (Path { ray: reflected(&path.ray, side, from), weight, depth }, Sent::Reflected)
+            });
+        let transmitted = (material.transparency > 0.0)
+            .then(|| path.weight * material.transparency)
+            .filter(|&w| worth(w))
+            .map(|weight| {
+                let (ray, kind) = transmitted_ray(&path.ray, surface, material.ior);
+                let kind = match kind {
+                    Transmission::Refracted => Sent::Refracted,
+                    Transmission::TotalInternalReflection => Sent::TotalInternalReflection,
+                };
+                (Path { ray, weight, depth }, kind)
+            });
         [reflected, transmitted]
     }
-
-    /// The colour seen along `ray`, the `depth`-th ray of its chain.
-    pub fn trace(&self, ray: &Ray, depth: u32, stats: &mut RayStats) -> Color {
-        // Borrowed where `closest` wrote it: copying it out would read it back wider
-        // than it was stored, which stalls store forwarding.
-        let found = self.world.closest(ray, 0.0, f32::INFINITY);
-        self.shade(ray, &found, depth, stats)
-    }
-
-    /// The colour of what `ray` found (`None`: the background).
-    ///
-    /// A surface's colour is `(1 − ρ − τ)·(ambient + diffuse) + ρ·reflected +
-    /// τ·transmitted + specular`, the original's blending rules in one formula
-    /// (ρ reflectivity, τ transparency); the highlight is added last, unscaled, as in
-    /// the original. Past the depth limit the reflected and transmitted shares are black.
-    fn shade(&self, ray: &Ray, found: &Option<(Hit, u32)>, depth: u32, stats: &mut RayStats) -> Color {
-        let Some((hit, index)) = found else {
-            return self.background;
-        };
-        let scene = self.world.scene();
-        let object = &scene.objects[*index as usize];
-        let material = scene.material(object.material);
-        let surface = object.shape.surface_uv(ray, hit, material.texture.uses_uv());
-        let mut color = self.local(ray, &surface, *index, material, |_, light, lit_from, n| {
-            let (l, distance, n_dot_l) = towards(light.position, lit_from, n);
-            (n_dot_l > 0.0).then(|| {
-                stats.shadow += 1;
-                (l, n_dot_l, self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance))
-            })
-        });
-        let [r, t] = self.sent_on(ray, &surface, *index, depth, stats);
-        if let Some(r) = r {
-            color += material.reflectivity * self.trace(&r, depth + 1, stats);
-        }
-        if let Some(t) = t {
-            color += material.transparency * self.trace(&t, depth + 1, stats);
-        }
-        color
-    }
-
-    /// The own share of a hit of `ray` on object `index`, of `material`, at `surface`:
-    /// `(1 − ρ − τ)·(ambient + diffuse) + specular`. `seen(i, light, from, normal)`
-    /// gives light `i`'s unit direction, cosine and the share its shadow ray lets
-    /// through, or `None` where the light is behind the surface.
-    #[inline(always)]
-    fn local(
-        &self,
-        ray: &Ray,
-        surface: &Surface,
-        index: u32,
-        material: &Material,
-        mut seen: impl FnMut(usize, &PointLight, Vec3, Vec3) -> Option<(Vec3, f32, f32)>,
-    ) -> Color {
-        let local_share = material.local_share();
-        // A surface with no own share and no highlight (a perfect mirror) shows nothing
-        // the lights could change: no texture lookup, no shadow rays. The colour is the
-        // same, since 0·x + 0 is +0 for any finite x.
-        if local_share == 0.0 && !(material.specular > 0.0) {
-            return Color::ZERO;
-        }
-        let (side, lit_from) = leaving(ray, surface);
-        let n = self.light_normal(surface, side, index);
-        let base = material.texture.color(surface.point, surface.uv);
-        let mut diffuse = Color::ZERO;
-        let mut specular = Color::ZERO;
-        // Lights act through the diffuse term and the highlight only: a black texel
-        // (the ceiling's dark squares) without a highlight needs no shadow rays.
-        if material.specular > 0.0 || (base != Color::ZERO && material.diffuse != 0.0) {
-            for (i, light) in self.world.scene().lights.iter().enumerate() {
-                let Some((l, n_dot_l, visible)) = seen(i, light, lit_from, n) else {
-                    continue; // the light is behind the surface
-                };
-                if visible == 0.0 {
-                    continue;
-                }
-                diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
-                if material.specular > 0.0 {
-                    let r_dot_v = reflect(-l, n).dot(-ray.dir);
-                    if r_dot_v > 0.0 {
-                        specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
-                    }
-                }
-            }
-        }
-        local_share * (self.ambient * base + diffuse) + specular
-    }
-}
-
-/// The rays of an image tile, and what they hit, found ahead of shading: the camera
-/// rays first, then level by level the rays their hits send on
-/// ([`Integrator::sent_on`]), so that each level's rays can be tested together.
-pub struct Traced<'a> {
-    pub nodes: &'a [(Ray, Option<(Hit, u32)>)],
-    /// Per node, the surface hit ([`Integrator::surface`]; anything where none is).
-    pub surfaces: &'a [PackedSurface],
-    /// Per node, the nodes of its reflected and transmitted rays ([`NONE`] where it
-    /// sends none). They come after it: a tile's levels are appended in turn.
-    pub next: &'a [[u32; 2]],
-    /// Per node and light (`k * lights + i`), the light as its hit sees it, where
-    /// [`Integrator::may_light`]; anything elsewhere.
-    pub lit: &'a [Lit],
-    /// Blocks of eight nodes shaded in lanes (their nodes hold no hit), and their
-    /// colours ([`Integrator::shade_blocks`]).
-    pub blocks: &'a [QuadBlock],
-    pub block_colors: &'a [[[f32; 8]; 3]],
 }
 
 /// A [`Surface`] as two 4-lane vectors, so that it is stored whole from registers: a
@@ -353,19 +304,9 @@ impl PackedSurface {
     }
 }
 
-/// A light seen from a hit: unit direction `l` towards it, `n_dot_l` (the light is
-/// behind the surface unless positive), and the share of it the shadow ray lets
-/// through (where `n_dot_l` is positive).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Lit {
-    pub l: Vec3,
-    pub n_dot_l: f32,
-    pub visible: f32,
-}
-
-/// The hits of one level of a [`Traced`] tile that may be lit, eight to a block, lane
-/// by lane (the layout [`towards_lanes`] reads): each one's node, where its shadow rays
-/// leave from and the normal lights are judged by ([`Integrator::light_frame`]).
+/// The hits of one level of a [`Wave`] that lights may change, eight to a block, lane
+/// by lane (the layout [`towards_lanes`] reads): each one's index in the level, where
+/// its shadow rays leave from and the normal lights are judged by.
 #[derive(Clone, Debug, Default)]
 pub struct LightFrames {
     nodes: Vec<u32>,

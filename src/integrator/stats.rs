@@ -24,3 +24,14 @@ impl std::ops::AddAssign for RayStats {
         self.refraction += o.refraction;
     }
 }
+
+impl RayStats {
+    /// Counts a ray sent on from a hit.
+    #[inline(always)]
+    pub fn count(&mut self, sent: super::Sent) {
+        match sent {
+            super::Sent::Refracted => self.refraction += 1,
+            super::Sent::Reflected | super::Sent::TotalInternalReflection => self.reflection += 1,
+        }
+    }
+}

@@ -94,6 +94,7 @@ struct SettingsDesc {
     max_depth: Option<S<i64>>,
     samples: Option<S<i64>>,
     ambient: Option<S<f32>>,
+    cutoff: Option<S<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -607,6 +608,9 @@ impl Ctx<'_> {
         }
         if let Some(a) = &s.ambient {
             out.ambient = self.non_negative(a, "ambient")?;
+        }
+        if let Some(c) = &s.cutoff {
+            out.cutoff = self.non_negative(c, "cutoff")?;
         }
         Ok(out)
     }

@@ -90,11 +90,20 @@ pub struct Settings {
     pub samples: u32,
     /// Ambient light: this share of a surface's colour shows even in full shadow.
     pub ambient: f32,
+    /// A ray whose share of its pixel (largest channel) falls below this is not
+    /// followed, as POV-Ray's `adc_bailout`; 0 follows every ray to `max_depth`.
+    pub cutoff: f32,
 }
 
 impl Default for Settings {
     fn default() -> Self {
-        Settings { background: Color::ZERO, max_depth: 10, samples: 1, ambient: 0.2 }
+        Settings {
+            background: Color::ZERO,
+            max_depth: 10,
+            samples: 1,
+            ambient: 0.2,
+            cutoff: crate::integrator::DEFAULT_CUTOFF,
+        }
     }
 }
 

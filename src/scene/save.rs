@@ -72,11 +72,12 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
     let st = &scene.settings;
     let _ = writeln!(
         s,
-        "\n[settings]\nbackground = {}\nmax_depth = {}\nsamples = {}\nambient = {}",
+        "\n[settings]\nbackground = {}\nmax_depth = {}\nsamples = {}\nambient = {}\ncutoff = {}",
         vec3(st.background)?,
         st.max_depth,
         st.samples,
-        num(st.ambient)?
+        num(st.ambient)?,
+        num(st.cutoff)?
     );
     for l in &scene.lights {
         let _ = writeln!(s, "\n[[light]]\nposition = {}\ncolor = {}", vec3(l.position)?, vec3(l.color)?);

@@ -1,0 +1,266 @@
+//! A batch of camera rays traced level by level, the way every ray of a render goes.
+//!
+//! Each level's rays ask the [`World`] for their hits together, grouped by where they
+//! come from (the camera, or the object and side they leave), so that the acceleration
+//! structure can answer a coherent group at once: in a small scene it tests only the
+//! objects the group may meet, eight rays at a time; in a large one it walks its tree.
+//! Then every light is looked at from all of the level's hits together (its shadow rays
+//! tested as a batch too), the hits' own colours are added to their samples, weighted,
+//! and the rays they send on make the next level.
+//!
+//! Memory is bounded by the batch, not by depth or samples per pixel: a wave takes at
+//! most [`WAVE_RAYS`] camera rays, and each sample may have at most [`PER_SAMPLE`] rays
+//! in a level; rays past that are traced at once, depth first, by
+//! [`Integrator::trace_path`]. Whether a ray goes on in the wave or depth first depends
+//! only on its own sample, and each sample adds its colours in an order fixed by its own
+//! rays, so a pixel's colour does not depend on which other pixels share its wave.
+
+use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, Towards8, lane_of, towards_lanes};
+use crate::accel::World;
+use crate::geometry::Hit;
+use crate::math::{Aabb, Color, Ray, Vec3};
+
+/// Camera rays in one wave at most: callers split larger batches.
+pub const WAVE_RAYS: usize = 1024;
+
+/// Rays one sample may have in one level of a wave; the rest go depth first.
+pub const PER_SAMPLE: u16 = 16;
+
+/// A ray found by [`World::closest`] and friends: the hit and the object's index.
+type Found = (Ray, Option<(Hit, u32)>);
+
+/// The buffers of a wave, kept from one batch to the next so that tracing allocates
+/// nothing once they have grown.
+#[derive(Default)]
+pub struct Wave {
+    /// The level's rays and what they hit.
+    level: Vec<Found>,
+    /// Per ray of the level: its weight and its sample (index into the colours).
+    paths: Vec<(Color, u32)>,
+    surfaces: Vec<PackedSurface>,
+    shading: Vec<Shading>,
+    /// Per object hit where lights may change the colour, a box round those hits.
+    boxes: Vec<(u32, Aabb)>,
+    frames: LightFrames,
+    /// Objects that may shadow the level's hits from one light.
+    blockers: Vec<u32>,
+    /// Objects a group of rays may meet.
+    seen: Vec<u32>,
+    /// Rays sent on from the level: (object left, 0 reflected or 1 transmitted), the
+    /// ray, its weight and its sample.
+    sent: Vec<((u32, u32), Ray, Color, u32)>,
+    /// Per sample, its rays in the next level.
+    budget: Vec<u16>,
+    /// Rays waiting in [`Integrator::trace_path`].
+    stack: Vec<Path>,
+}
+
+impl Wave {
+    /// The colours seen along camera rays `rays` (at most [`WAVE_RAYS`]), into `colors`,
+    /// one per ray. `cone`, the apex and edge directions of a cone that holds every ray
+    /// ([`crate::camera::CameraRig::cone`]), lets a small scene test only what it sees.
+    pub fn trace(
+        &mut self,
+        integrator: &Integrator,
+        rays: &[Ray],
+        cone: Option<(Vec3, [Vec3; 4])>,
+        colors: &mut Vec<Color>,
+        stats: &mut RayStats,
+    ) {
+        debug_assert!(rays.len() <= WAVE_RAYS);
+        let world = integrator.world();
+        colors.clear();
+        colors.resize(rays.len(), Color::ZERO);
+        self.level.clear();
+        self.paths.clear();
+        self.level.extend(rays.iter().map(|&ray| (ray, None)));
+        self.paths.extend((0..rays.len() as u32).map(|sample| (Color::ONE, sample)));
+        stats.primary += rays.len() as u64;
+        match cone {
+            Some((apex, edges)) if world.seen_from(apex, edges, &mut self.seen) => {
+                world.closest_among_each(&self.seen, &mut self.level)
+            }
+            _ => find_hits(world, &mut self.level, &mut self.seen),
+        }
+        let mut depth = 1;
+        loop {
+            self.shade_level(integrator, colors, stats);
+            if depth >= integrator.max_depth || !self.send_on(integrator, depth, colors, stats) {
+                break;
+            }
+            depth += 1;
+        }
+    }
+
+    /// The level's hits shaded: surfaces, every light looked at from all of them, and
+    /// each ray's colour (its hit's own, or the background) added to its sample.
+    fn shade_level(&mut self, integrator: &Integrator, colors: &mut [Color], stats: &mut RayStats) {
+        let Wave { level, paths, surfaces, shading, boxes, frames, blockers, .. } = self;
+        let world = integrator.world();
+        surfaces.clear();
+        surfaces.resize(level.len(), PackedSurface::default());
+        shading.clear();
+        shading.resize(level.len(), Shading::default());
+        boxes.clear();
+        frames.clear();
+        // Hits come in runs on one object: each run's box is grown on its own, then merged.
+        let mut run: Option<(u32, Aabb)> = None;
+        for (k, (ray, found)) in level.iter().enumerate() {
+            let Some((hit, index)) = found else { continue };
+            surfaces[k] = integrator.surface(ray, hit, *index);
+            let s = integrator.shading(ray, &surfaces[k].get(), *index);
+            shading[k] = s;
+            if !s.lit {
+                continue;
+            }
+            frames.push(k as u32, (s.from, s.n));
+            let p = ray.at(hit.t);
+            match &mut run {
+                Some((o, b)) if o == index => *b = b.grow(p),
+                _ => {
+                    if let Some(done) = run.replace((*index, Aabb::EMPTY.grow(p))) {
+                        merge_box(boxes, done);
+                    }
+                }
+            }
+        }
+        if let Some(done) = run {
+            merge_box(boxes, done);
+        }
+        for light in &world.scene().lights {
+            // One-sided shading may send a shadow ray from a surface's back through the
+            // surface itself, which the culling assumes it does not.
+            let culled = !integrator.one_sided && world.may_shadow(boxes, light.position, blockers);
+            let blockers = culled.then_some(&blockers[..]);
+            for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
+                let seen = towards_lanes(light.position, from, normal);
+                let mut live = 0u32;
+                for lane in 0..nodes.len() {
+                    live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
+                }
+                let visible = visible_lanes(world, blockers, from, &seen, live);
+                for (lane, &k) in nodes.iter().enumerate() {
+                    if live >> lane & 1 == 0 {
+                        continue; // the light is behind the surface
+                    }
+                    stats.shadow += 1;
+                    let (ray, found) = &level[k as usize];
+                    let material = integrator.material(found.expect("lit hits hit").1);
+                    let lit = (lane_of(&seen.l, lane), seen.n_dot_l[lane], visible[lane]);
+                    integrator.add_light(&mut shading[k as usize], material, ray.dir, lit, light);
+                }
+            }
+        }
+        for (k, (_, found)) in level.iter().enumerate() {
+            let (weight, sample) = paths[k];
+            let color = match found {
+                None => integrator.background(),
+                Some((_, index)) => integrator.own_color(&shading[k], integrator.material(*index)),
+            };
+            colors[sample as usize] += weight * color;
+        }
+    }
+
+    /// The rays the level's hits (the `depth`-th rays of their chains) send on become
+    /// the next level, grouped by the object they leave and how, with their hits found;
+    /// a sample's rays past its budget are traced depth first at once, into `colors`.
+    /// `false` when no ray goes on in the wave.
+    fn send_on(&mut self, integrator: &Integrator, depth: u32, colors: &mut [Color], stats: &mut RayStats) -> bool {
+        let Wave { level, paths, surfaces, seen, sent, budget, stack, .. } = self;
+        sent.clear();
+        budget.clear();
+        budget.resize(colors.len(), 0);
+        for (k, (ray, found)) in level.iter().enumerate() {
+            let Some((_, index)) = found else { continue };
+            let (weight, sample) = paths[k];
+            let path = Path { ray: *ray, weight, depth };
+            for (slot, child) in integrator.scatter(&path, &surfaces[k].get(), *index).into_iter().enumerate() {
+                let Some((child, kind)) = child else { continue };
+                stats.count(kind);
+                let rays = &mut budget[sample as usize];
+                if *rays < PER_SAMPLE {
+                    *rays += 1;
+                    sent.push(((*index, slot as u32), child.ray, child.weight, sample));
+                } else {
+                    colors[sample as usize] += integrator.trace_path(child, stack, stats);
+                }
+            }
+        }
+        if sent.is_empty() {
+            return false;
+        }
+        // Stable: within a group each sample's rays keep their order.
+        sent.sort_by_key(|&(group, ..)| group);
+        level.clear();
+        paths.clear();
+        for &(_, ray, weight, sample) in sent.iter() {
+            level.push((ray, None));
+            paths.push((weight, sample));
+        }
+        let world = integrator.world();
+        let mut at = 0;
+        for group in sent.chunk_by(|a, b| a.0 == b.0) {
+            find_hits(world, &mut level[at..at + group.len()], seen);
+            at += group.len();
+        }
+        true
+    }
+}
+
+/// The hits of a group of rays that leave from nearby points in nearby directions:
+/// among the few objects they may meet where the world can tell
+/// ([`World::seen_along`]), else through the tree ray by ray. The same answers.
+fn find_hits(world: &World, rays: &mut [Found], seen: &mut Vec<u32>) {
+    if rays.len() >= 4 && world.seen_along(rays, seen) {
+        world.closest_among_each(seen, rays);
+    } else {
+        for (ray, hit) in rays {
+            *hit = world.closest(ray, 0.0, f32::INFINITY);
+        }
+    }
+}
+
+/// What the shadow rays from eight points `from` towards a light (`seen`) let
+/// through, in the lanes `live` (0 in the others): tested together against objects
+/// `blockers` only where given ([`World::may_shadow`]), else against the whole world.
+#[inline(always)]
+fn visible_lanes(
+    world: &World,
+    blockers: Option<&[u32]>,
+    from: &[[f32; 8]; 3],
+    seen: &Towards8,
+    live: u32,
+) -> [f32; 8] {
+    match blockers {
+        Some(ids) => world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
+        None => {
+            // The live lanes' rays, side by side, then their answers back in lane.
+            let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
+            for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
+                (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
+            }
+            let mut light = [0.0; 8];
+            world.transmittance_each(&rays[..n], &mut light[..n]);
+            let mut visible = [0.0; 8];
+            for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
+                visible[lane] = light;
+            }
+            visible
+        }
+    }
+}
+
+/// `run`, a box round hits on one object, merged into that object's box in `boxes`.
+fn merge_box(boxes: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)) {
+    if let Some((o, b)) = boxes.last_mut()
+        && *o == i
+    {
+        *b = b.union(run);
+        return;
+    }
+    match boxes.iter_mut().find(|(o, _)| *o == i) {
+        Some((_, b)) => *b = b.union(run),
+        None => boxes.push((i, run)),
+    }
+}
