@@ -77,10 +77,12 @@ pub fn reflect(d: Vec3, n: Vec3) -> Vec3 {
 pub fn refract(d: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
     let cos_i = -d.dot(n);
     let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
-    if k < 0.0 {
+    // Not `k < 0.0`: with an index of 1e30 `eta * eta` is infinite and `k` may be NaN.
+    if !(k >= 0.0) {
         return None;
     }
-    Some((eta * d + (eta * cos_i - k.sqrt()) * n).normalize())
+    // Straight on where the sum cancels to nothing (head-on into an enormous index).
+    Some((eta * d + (eta * cos_i - k.sqrt()) * n).try_normalize().unwrap_or(d))
 }
 
 /// An orthonormal pair perpendicular to unit `n` (Duff et al. 2017, branchless).

@@ -500,6 +500,11 @@ impl<'s> World<'s> {
         t_max: f32,
         mut test: impl FnMut(&LeafItem, f32) -> Visit,
     ) {
+        // A ray from an overflowed point or in a direction of NaNs meets nothing (and
+        // its box tests would not say so).
+        if !(ray.origin.is_finite() && ray.dir.is_finite()) {
+            return;
+        }
         let leaf = |range: std::ops::Range<usize>, mut t_cur: f32| {
             for i in &self.leaves[range] {
                 match test(i, t_cur) {

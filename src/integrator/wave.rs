@@ -264,3 +264,70 @@ fn merge_box(boxes: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)) {
         None => boxes.push((i, run)),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::AccelKind;
+    use crate::prelude::*;
+
+    /// Glass that reflects and transmits, between two mirrors: without a cutoff every
+    /// glass hit sends two rays, so samples overrun their budget and go depth first.
+    fn branchy() -> Scene {
+        let mut scene = Scene::new(Camera::new(Vec3::new(0.0, 0.5, 2.5), Vec3::ZERO, Vec3::Y, 60.0, 8, 8));
+        let glass =
+            scene.add_material(Material::color(Color::new(0.6, 0.8, 1.0)).reflective(0.45).transparent(0.45, 1.5));
+        let mirror = scene.add_material(Material::color(Color::ONE).reflective(0.9));
+        scene.add(Sphere::new(Vec3::ZERO, 1.0), glass);
+        scene.add(Sphere::new(Vec3::new(0.9, 0.8, -0.5), 0.6), glass);
+        // A box of mirrors round it all, normals in: every ray hits something.
+        let (h, x, y, z) = (3.0, Vec3::X * 6.0, Vec3::Y * 6.0, Vec3::Z * 6.0);
+        let c = Vec3::splat(-h);
+        for (corner, u, v) in [(c + z, y, x), (c, x, y), (c + x, z, y), (c + z, -z, y), (c + y, x, z), (c, z, x)] {
+            scene.add(Quad::new(corner, u, v), mirror);
+        }
+        scene.add_light(PointLight::new(Vec3::new(1.0, 2.5, 2.0), Color::ONE));
+        scene.settings.cutoff = 0.0;
+        scene
+    }
+
+    #[test]
+    fn a_rays_colour_does_not_depend_on_the_others_in_its_wave() {
+        let scene = branchy();
+        for accel in [AccelKind::Bvh, AccelKind::None] {
+            let world = World::new(&scene, accel);
+            let integrator = Integrator::new(&world, 9);
+            let rig = scene.camera.rig().unwrap();
+            let rays: Vec<Ray> = (0..64).map(|i| rig.ray((i % 8) as f32 + 0.3, (i / 8) as f32 + 0.6)).collect();
+            let (mut wave, mut all, mut stats) = (Wave::default(), Vec::new(), RayStats::default());
+            wave.trace(&integrator, &rays, None, &mut all, &mut stats);
+            // Some samples ran past their budget: more rays than the wave could hold.
+            assert!(stats.reflection + stats.refraction > 64 * PER_SAMPLE as u64, "{stats:?}");
+            let mut one = Vec::new();
+            for (k, ray) in rays.iter().enumerate() {
+                wave.trace(&integrator, std::slice::from_ref(ray), None, &mut one, &mut RayStats::default());
+                assert_eq!(one[0].to_array().map(f32::to_bits), all[k].to_array().map(f32::to_bits), "ray {k}");
+                // Depth first from the start: the same colour, summed in another order.
+                let dfs = integrator.trace_primary(ray, &mut RayStats::default());
+                assert!((dfs - all[k]).abs().max_element() <= 1e-5 * (1.0 + dfs.max_element()), "ray {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_cutoff_drops_rays_that_bring_little_and_changes_little() {
+        let mut scene = branchy();
+        let render = |scene: &Scene| Renderer::new(scene).unwrap().max_depth(12).render_with_progress(&|_, _| {});
+        let all = render(&scene);
+        scene.settings.cutoff = crate::integrator::DEFAULT_CUTOFF;
+        let cut = render(&scene);
+        let sent = |s: &RayStats| s.reflection + s.refraction;
+        assert!(sent(&cut.stats) * 2 < sent(&all.stats), "{:?} vs {:?}", cut.stats, all.stats);
+        for y in 0..8 {
+            for x in 0..8 {
+                let d = (cut.image.pixel(x, y) - all.image.pixel(x, y)).abs().max_element();
+                assert!(d < 2.0 / 255.0, "({x}, {y}) moved by {d}");
+            }
+        }
+    }
+}
