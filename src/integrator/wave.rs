@@ -323,11 +323,17 @@ mod tests {
         let cut = render(&scene);
         let sent = |s: &RayStats| s.reflection + s.refraction;
         assert!(sent(&cut.stats) * 2 < sent(&all.stats), "{:?} vs {:?}", cut.stats, all.stats);
+        // Each ray dropped carried under 1/255 of its pixel, but what it would have seen
+        // may be brighter than 1: a highlight at every bounce between mirrors of 0.9
+        // adds up to 10. On average a pixel moves by less than a level.
+        let (mut worst, mut sum) = (0f32, 0f32);
         for y in 0..8 {
             for x in 0..8 {
                 let d = (cut.image.pixel(x, y) - all.image.pixel(x, y)).abs().max_element();
-                assert!(d < 2.0 / 255.0, "({x}, {y}) moved by {d}");
+                (worst, sum) = (worst.max(d), sum + d);
             }
         }
+        assert!(worst > 0.0 && worst < 10.0 / 255.0, "a pixel moved by {worst}");
+        assert!(sum / 64.0 < 1.0 / 255.0, "pixels moved by {} on average", sum / 64.0);
     }
 }
