@@ -580,6 +580,14 @@ impl<'s> World<'s> {
         best
     }
 
+    /// Whether groups of rays may be tested against only the objects they may meet
+    /// ([`World::seen_from`], [`World::seen_along`], [`World::may_shadow`]): in a small
+    /// scene with a tree asked for. In a large one the tree does better.
+    #[inline]
+    pub fn culls(&self) -> bool {
+        self.kind == AccelKind::Bvh && self.scene.objects.len() <= CONE_MAX_OBJECTS
+    }
+
     /// The objects whose boxes meet the cone of rays from `apex` within the four edge
     /// directions `edges` (see [`crate::camera::CameraRig::cone`]), in index order, into
     /// `seen`; `false` (and `seen` left unusable) when that would not pay: no tree was
@@ -587,7 +595,7 @@ impl<'s> World<'s> {
     /// through an image tile then test only these, with [`World::closest_among`].
     pub fn seen_from(&self, apex: Vec3, edges: [Vec3; 4], seen: &mut Vec<u32>) -> bool {
         seen.clear();
-        if self.kind != AccelKind::Bvh || self.scene.objects.len() > CONE_MAX_OBJECTS {
+        if !self.culls() {
             return false;
         }
         // Inward normals of the cone's four sides, in f64 so that the test cannot
@@ -625,7 +633,7 @@ impl<'s> World<'s> {
     /// no distance past 0 lies within all three.
     pub fn seen_along<T>(&self, rays: &[(Ray, T)], seen: &mut Vec<u32>) -> bool {
         seen.clear();
-        if self.kind != AccelKind::Bvh || self.scene.objects.len() > CONE_MAX_OBJECTS {
+        if !self.culls() {
             return false;
         }
         let (mut o_lo, mut o_hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
@@ -674,7 +682,7 @@ impl<'s> World<'s> {
     /// segments to the points' bounding sphere fill, or lies beyond its reach.
     pub fn may_shadow(&self, from: &[(u32, Aabb)], light: Vec3, blockers: &mut Vec<u32>) -> bool {
         blockers.clear();
-        if self.kind != AccelKind::Bvh || self.scene.objects.len() > CONE_MAX_OBJECTS {
+        if !self.culls() {
             return false;
         }
         let margin = |b: Aabb| {

@@ -98,22 +98,30 @@ impl Wave {
         let Wave { level, paths, surfaces, shading, boxes, frames, blockers, .. } = self;
         let world = integrator.world();
         surfaces.clear();
-        surfaces.resize(level.len(), PackedSurface::default());
         shading.clear();
-        shading.resize(level.len(), Shading::default());
         boxes.clear();
         frames.clear();
+        // Boxes round the hits only where the world can use them to cull shadow rays.
+        let culls = world.culls() && !integrator.one_sided;
         // Hits come in runs on one object: each run's box is grown on its own, then merged.
         let mut run: Option<(u32, Aabb)> = None;
         for (k, (ray, found)) in level.iter().enumerate() {
-            let Some((hit, index)) = found else { continue };
-            surfaces[k] = integrator.surface(ray, hit, *index);
-            let s = integrator.shading(ray, &surfaces[k].get(), *index);
-            shading[k] = s;
+            let Some((hit, index)) = found else {
+                surfaces.push(PackedSurface::default());
+                shading.push(Shading::default());
+                continue;
+            };
+            let surface = integrator.surface(ray, hit, *index);
+            surfaces.push(surface);
+            let s = integrator.shading(ray, &surface.get(), *index);
+            shading.push(s);
             if !s.lit {
                 continue;
             }
             frames.push(k as u32, (s.from, s.n));
+            if !culls {
+                continue;
+            }
             let p = ray.at(hit.t);
             match &mut run {
                 Some((o, b)) if o == index => *b = b.grow(p),
@@ -130,7 +138,7 @@ impl Wave {
         for light in &world.scene().lights {
             // One-sided shading may send a shadow ray from a surface's back through the
             // surface itself, which the culling assumes it does not.
-            let culled = !integrator.one_sided && world.may_shadow(boxes, light.position, blockers);
+            let culled = culls && world.may_shadow(boxes, light.position, blockers);
             let blockers = culled.then_some(&blockers[..]);
             for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
                 let seen = towards_lanes(light.position, from, normal);
