@@ -483,7 +483,8 @@ impl<'s> Renderer<'s> {
             blockers.resize_with(lights.len(), || None);
             for (b, l) in blockers.iter_mut().zip(lights) {
                 let mut few = b.take().unwrap_or_default();
-                *b = world.may_shadow(hits, l.position, &mut few).then_some(few);
+                // A light without a position (directional) is tested against everything.
+                *b = l.position().and_then(|p| world.may_shadow(hits, p, &mut few).then_some(few));
             }
             // The level's blocks: those after the ones shaded already.
             integrator.shade_blocks(&blocks[block_colors.len()..], blockers, block_colors, stats);

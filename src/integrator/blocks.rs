@@ -13,7 +13,7 @@
 //! ([`crate::geometry::Quad::surface`], `leaving`, [`towards_lanes`], `local`,
 //! `reflected`), so the colours, and the ray counts, are the same to the bit.
 
-use super::{Integrator, RayStats, leaving, reflected, towards_lanes};
+use super::{Integrator, RayStats, leaving, reflected, towards_light_lanes};
 use crate::accel::Best8;
 use crate::geometry::{Hit, Shape, part};
 use crate::math::{Aabb, Ray, Vec2, Vec3, surface_offset};
@@ -256,7 +256,7 @@ impl Integrator<'_, '_> {
             let material = scene.material(scene.objects[b.object as usize].material);
             let mut diffuse = [[0.0f32; 8]; 3];
             for (i, light) in scene.lights.iter().enumerate() {
-                let seen = towards_lanes(light.position, &b.from, &b.normal);
+                let (seen, color) = (towards_light_lanes(light, &b.from, &b.normal), light.color());
                 let mut live = 0u32;
                 for lane in 0..8 {
                     live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
@@ -268,7 +268,7 @@ impl Integrator<'_, '_> {
                     for lane in 0..8 {
                         // `local`: lanes behind the surface, black or in full shadow add nothing.
                         let s = (visible[lane] * material.diffuse) * seen.n_dot_l[lane];
-                        let add = (s * b.base[k][lane]) * light.color[k];
+                        let add = (s * b.base[k][lane]) * color[k];
                         let on = live >> lane & 1 != 0 && visible[lane] != 0.0;
                         sum[lane] = if on { sum[lane] + add } else { sum[lane] };
                     }

@@ -11,7 +11,7 @@ pub use stats::RayStats;
 
 use crate::accel::World;
 use crate::geometry::{Hit, Surface};
-use crate::light::PointLight;
+use crate::light::Light;
 use crate::material::Material;
 use crate::math::{Color, Ray, Vec2, Vec3, reflect, refract, surface_offset};
 use glam::Vec4;
@@ -143,9 +143,9 @@ impl<'w, 's> Integrator<'w, 's> {
     /// the whole world. Shadow rays go only where the cosine is positive.
     pub fn look_at_light(&self, frames: &LightFrames, i: usize, blockers: Option<&[u32]>, lit: &mut [Lit]) {
         let lights = self.world.scene().lights.len();
-        let position = self.world.scene().lights[i].position;
+        let light = &self.world.scene().lights[i];
         for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
-            let seen = towards_lanes(position, from, normal);
+            let seen = towards_light_lanes(light, from, normal);
             let mut live = 0u32;
             for lane in 0..nodes.len() {
                 live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
@@ -248,7 +248,7 @@ impl<'w, 's> Integrator<'w, 's> {
         let material = scene.material(object.material);
         let surface = object.shape.surface_uv(ray, hit, material.texture.uses_uv());
         let mut color = self.local(ray, &surface, *index, material, |_, light, lit_from, n| {
-            let (l, distance, n_dot_l) = towards(light.position, lit_from, n);
+            let (l, distance, n_dot_l) = towards_light(light, lit_from, n);
             (n_dot_l > 0.0).then(|| {
                 stats.shadow += 1;
                 (l, n_dot_l, self.world.transmittance(&Ray { origin: lit_from, dir: l }, distance))
@@ -275,7 +275,7 @@ impl<'w, 's> Integrator<'w, 's> {
         surface: &Surface,
         index: u32,
         material: &Material,
-        mut seen: impl FnMut(usize, &PointLight, Vec3, Vec3) -> Option<(Vec3, f32, f32)>,
+        mut seen: impl FnMut(usize, &Light, Vec3, Vec3) -> Option<(Vec3, f32, f32)>,
     ) -> Color {
         let local_share = material.local_share();
         // A surface with no own share and no highlight (a perfect mirror) shows nothing
@@ -299,11 +299,11 @@ impl<'w, 's> Integrator<'w, 's> {
                 if visible == 0.0 {
                     continue;
                 }
-                diffuse += (visible * material.diffuse * n_dot_l) * base * light.color;
+                diffuse += (visible * material.diffuse * n_dot_l) * base * light.color();
                 if material.specular > 0.0 {
                     let r_dot_v = reflect(-l, n).dot(-ray.dir);
                     if r_dot_v > 0.0 {
-                        specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+                        specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color();
                     }
                 }
             }
@@ -427,6 +427,39 @@ pub fn towards_lanes(light: Vec3, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> To
         }
     }
     out
+}
+
+/// [`towards_lanes`] for any light: a light with a position as there (bit for bit),
+/// a directional one with [`Light::toward`] lane by lane. Cone and attenuation are
+/// not applied here (see [`Light::falloff`]).
+#[inline]
+pub fn towards_light_lanes(light: &Light, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> Towards8 {
+    if let Some(position) = light.position() {
+        return towards_lanes(position, from, n);
+    }
+    let mut out = Towards8::default();
+    for lane in 0..8 {
+        let (l, distance) = light.toward(lane_of(from, lane));
+        out.n_dot_l[lane] = lane_of(n, lane).dot(l);
+        out.distance[lane] = distance;
+        for (row, l) in out.l.iter_mut().zip(l.to_array()) {
+            row[lane] = l;
+        }
+    }
+    out
+}
+
+/// [`towards`] for any light: a light with a position as there (bit for bit), a
+/// directional one with [`Light::toward`].
+#[inline(always)]
+fn towards_light(light: &Light, from: Vec3, n: Vec3) -> (Vec3, f32, f32) {
+    match light.position() {
+        Some(position) => towards(position, from, n),
+        None => {
+            let (l, distance) = light.toward(from);
+            (l, distance, n.dot(l))
+        }
+    }
 }
 
 /// Direction and distance to `light` from `from`, and the cosine with normal `n`.

@@ -11,7 +11,6 @@
 use super::{MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};
 use crate::geometry::{self, Cone, Cylinder, Mesh, Polygon, Quad, Shape, Sphere, Triangle};
-use crate::light::PointLight;
 use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
 use crate::texture::{ImageMap, Texture, planet};
@@ -20,6 +19,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
+
+mod light;
+use light::LightDesc;
 
 /// The built-in default scene: the seed room. The file in the repository is compiled in,
 /// so the two cannot drift apart.
@@ -94,14 +96,6 @@ struct SettingsDesc {
     max_depth: Option<S<i64>>,
     samples: Option<S<i64>>,
     ambient: Option<S<f32>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct LightDesc {
-    position: S<V3>,
-    color: Option<S<V3>>,
-    intensity: Option<S<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -368,11 +362,7 @@ impl Ctx<'_> {
             scene.settings = self.settings(s.get_ref())?;
         }
         for l in &desc.light {
-            let l = l.get_ref();
-            let position = self.vec3(&l.position, "position")?;
-            let color = l.color.as_ref().map_or(Ok(Color::ONE), |c| self.color(c, "color"))?;
-            let intensity = l.intensity.as_ref().map_or(Ok(1.0), |i| self.non_negative(i, "intensity"))?;
-            scene.add_light(PointLight::new(position, color * intensity));
+            scene.add_light(self.light(l)?);
         }
         let mut names = HashMap::new();
         for (name, m) in &desc.material {
