@@ -115,6 +115,7 @@ pub fn nff_material(color: Color, kd: f32, ks: f32, shine: f32, t: f32, ior: f32
         reflectivity,
         transparency,
         ior: if t > 0.0 { ior } else { 1.0 },
+        ..Material::default()
     };
     let share = m.local_share();
     let changed = sum > 1.0 || (kd > 0.0 && share <= 0.0);

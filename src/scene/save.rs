@@ -146,6 +146,12 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
             num(m.transparency)?,
             num(m.ior)?
         );
+        if m.fresnel {
+            let _ = writeln!(s, "fresnel = true");
+        }
+        if m.absorbs() {
+            let _ = writeln!(s, "absorption = {}", vec3(m.absorption)?);
+        }
     }
     flush(&mut s, out)?;
 
@@ -340,9 +346,12 @@ mod tests {
             },
             ..Material::default().transparent(0.3, 1.5)
         });
+        let glass = Material::default().transparent(0.9, 1.45).with_fresnel(true);
+        let glass = s.add_material(glass.absorbing(Color::new(0.1, 0.0, 1.0 / 3.0)));
         for i in 0..11 {
             s.add(Sphere::new(Vec3::new(i as f32 * 0.1, 0.3, -1.0 / 3.0), 1.0 / 7.0), a);
         }
+        s.add(Sphere::new(Vec3::new(0.0, -2.0, 0.0), 0.5), glass);
         s.add(Quad::new(Vec3::ZERO, Vec3::X * 2.0, Vec3::new(0.0, 0.3, 1.1)), b);
         let pts = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
         s.add(Polygon::new(pts.clone()).unwrap(), a);
