@@ -184,6 +184,48 @@ mod tests {
         assert_eq!(sp.attenuation.quadratic, 1.0);
     }
 
+    /// The example scenes load, hold what their comments say, render (every light kind
+    /// through today's core, shadows of a directional light to infinity), and write
+    /// back to TOML that reads as the same scene.
+    #[test]
+    fn example_scenes_load_render_and_write_back() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
+        for name in ["scenes/lights.toml", "scenes/glass.toml"] {
+            let scene = crate::scene::load_file(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
+            let mut text = Vec::new();
+            crate::scene::save::write_toml(&scene, name, &mut text).unwrap();
+            let back = load_str(std::str::from_utf8(&text).unwrap(), name, dir).unwrap();
+            assert_eq!(back.lights, scene.lights, "{name}");
+            assert_eq!(format!("{:?}", back.materials), format!("{:?}", scene.materials), "{name}");
+            let image = crate::render::Renderer::new(&scene).unwrap().size(64, 48).render();
+            let mut lit = 0;
+            for y in 0..48 {
+                for x in 0..64 {
+                    let c = image.pixel(x, y);
+                    assert!(c.is_finite() && c.min_element() >= 0.0, "{name} ({x}, {y}): {c}");
+                    lit += (c.max_element() > 0.1) as u32;
+                }
+            }
+            assert!(lit > 64 * 48 / 2, "{name}: only {lit} pixels lit");
+        }
+        let lights = crate::scene::load_file(&dir.join("scenes/lights.toml")).unwrap();
+        let kinds: Vec<_> = lights.lights.iter().map(std::mem::discriminant).collect();
+        assert_eq!(kinds.len(), 3);
+        assert!(kinds[0] != kinds[1] && kinds[1] != kinds[2] && kinds[0] != kinds[2]);
+        let spot = lights.lights.iter().find(|l| matches!(l, Light::Spot(_))).unwrap();
+        // Its cone meets the floor (y = 0) at 6·tan 20° from the point below it.
+        let below = spot.position().unwrap() * Vec3::new(1.0, 0.0, 1.0);
+        let on_floor = |r: f32| {
+            let (l, d) = spot.toward(below + Vec3::new(r, 0.0, 0.0));
+            spot.falloff(l, d)
+        };
+        let edge = 6.0 * 20f32.to_radians().tan();
+        assert_eq!(on_floor(0.0), 1.0);
+        assert!(on_floor(edge * 0.99) > 0.0 && on_floor(edge * 1.01) == 0.0);
+        let glass = crate::scene::load_file(&dir.join("scenes/glass.toml")).unwrap();
+        assert!(glass.materials.iter().any(|m| m.fresnel && m.absorbs() && m.transparency > 0.0));
+    }
+
     #[test]
     fn bad_lights_are_located() {
         // The camera takes lines 1-4; `[[light]]` is line 5.
