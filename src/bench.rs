@@ -162,7 +162,7 @@ impl BenchCase {
     pub fn room() -> BenchCase {
         let scene = scene::load_str(scene::DEFAULT_SCENE, scene::DEFAULT_SCENE_NAME, std::path::Path::new("scenes"))
             .expect("the built-in room loads");
-        let light = scene.lights[0].position;
+        let light = scene.lights[0].position().expect("the room's light is a point light");
         let n = scene.objects.len();
         BenchCase::new("room".into(), scene, n, light)
     }

@@ -30,7 +30,7 @@ pub mod prelude {
     pub use crate::camera::Camera;
     pub use crate::film::{Image, write_png};
     pub use crate::geometry::{Cone, Cylinder, Polygon, Quad, Shape, Sphere, Triangle};
-    pub use crate::light::PointLight;
+    pub use crate::light::{Attenuation, DirectionalLight, Light, PointLight, SpotLight};
     pub use crate::material::Material;
     pub use crate::math::{Color, Vec2, Vec3};
     pub use crate::render::Renderer;

@@ -8,6 +8,7 @@
 //! routines and break ties the same way (the lower index wins), so they produce
 //! identical images.
 
+mod absorb;
 pub mod bvh;
 #[cfg(target_arch = "x86_64")]
 mod packet8;
@@ -401,6 +402,8 @@ pub struct World<'s> {
     /// Per object, the share of light its material lets through (0 = opaque), looked
     /// up once here rather than through the material on every shadow ray.
     transmission: Vec<f32>,
+    /// The objects whose material absorbs light inside ([`World::transmittance_color`]).
+    absorbing: Vec<u32>,
     build_time: Duration,
     /// Test objects one by one: no top-level tree, or a single object (one mesh), whose
     /// own tree's root box already does what the top level would.
@@ -419,6 +422,9 @@ impl<'s> World<'s> {
     pub fn with_width(scene: &'s Scene, kind: AccelKind, width: Option<usize>) -> Self {
         let start = Instant::now();
         let transmission = scene.objects.iter().map(|o| scene.material(o.material).transparency).collect();
+        let absorbing = (0..scene.objects.len() as u32)
+            .filter(|&i| scene.material(scene.objects[i as usize].material).absorbs())
+            .collect();
         let (top, meshes) = match kind {
             AccelKind::None => (Bvh { nodes: vec![], indices: vec![] }, scene.objects.iter().map(|_| None).collect()),
             AccelKind::Bvh => {
@@ -466,7 +472,7 @@ impl<'s> World<'s> {
         let avx2 = std::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
-        World { scene, kind, top4, leaves, meshes, transmission, build_time: start.elapsed(), flat, avx2 }
+        World { scene, kind, top4, leaves, meshes, transmission, absorbing, build_time: start.elapsed(), flat, avx2 }
     }
 
     pub fn scene(&self) -> &'s Scene {

@@ -19,8 +19,8 @@ pub use wave::{PER_SAMPLE, WAVE_RAYS, Wave};
 
 use crate::accel::World;
 use crate::geometry::{Hit, Surface};
-use crate::light::PointLight;
-use crate::material::Material;
+use crate::light::Light;
+use crate::material::{Material, beer_lambert, fresnel_reflectance};
 use crate::math::{Color, Ray, Vec2, Vec3, reflect, refract, surface_offset};
 use glam::Vec4;
 
@@ -156,14 +156,16 @@ impl<'w, 's> Integrator<'w, 's> {
             };
             let surface = self.surface(&p.ray, &hit, index).get();
             let material = self.material(index);
+            let p = Path { weight: self.arriving(p.weight, &p.ray, hit.t, &surface, index), ..p };
             let mut shading = self.shading(&p.ray, &surface, index);
             if shading.lit {
                 for light in lights {
-                    let (l, distance, n_dot_l) = towards(light.position, shading.from, shading.n);
-                    if n_dot_l > 0.0 {
+                    let (l, distance, n_dot_l) = towards_light(light, shading.from, shading.n);
+                    let falloff = if n_dot_l > 0.0 { light.falloff(l, distance) } else { 0.0 };
+                    if falloff > 0.0 {
                         stats.shadow += 1;
-                        let visible = self.world.transmittance(&Ray { origin: shading.from, dir: l }, distance);
-                        self.add_light(&mut shading, material, p.ray.dir, (l, n_dot_l, visible), light);
+                        let visible = self.world.transmittance_color(&Ray { origin: shading.from, dir: l }, distance);
+                        self.add_light(&mut shading, material, p.ray.dir, (l, n_dot_l, visible * falloff), light);
                     }
                 }
             }
@@ -208,24 +210,25 @@ impl<'w, 's> Integrator<'w, 's> {
 
     /// Step two, once per light in front of the surface: its diffuse term and highlight,
     /// given its unit direction `l`, the cosine `n_dot_l` (positive) and the share of it
-    /// that reaches the surface (`visible`: what its shadow ray lets through).
+    /// that reaches the surface (`visible`: what its shadow ray lets through, coloured
+    /// by absorbing glass, times the light's falloff: [`Light::falloff`]).
     #[inline(always)]
     pub fn add_light(
         &self,
         shading: &mut Shading,
         material: &Material,
         view: Vec3,
-        (l, n_dot_l, visible): (Vec3, f32, f32),
-        light: &PointLight,
+        (l, n_dot_l, visible): (Vec3, f32, Color),
+        light: &Light,
     ) {
-        if visible == 0.0 {
+        if visible == Color::ZERO {
             return;
         }
-        shading.diffuse += (visible * material.diffuse * n_dot_l) * shading.base * light.color;
+        shading.diffuse += (visible * material.diffuse * n_dot_l) * shading.base * light.color();
         if material.specular > 0.0 {
             let r_dot_v = reflect(-l, shading.n).dot(-view);
             if r_dot_v > 0.0 {
-                shading.specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color;
+                shading.specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color();
             }
         }
     }
@@ -240,6 +243,19 @@ impl<'w, 's> Integrator<'w, 's> {
             return Color::ZERO;
         }
         material.local_share() * (self.ambient * shading.base + shading.diffuse) + shading.specular
+    }
+
+    /// The weight of a ray `weight` as it arrives at its hit at distance `t`: less what
+    /// absorbing glass took on the way, where the ray hits the inside of an absorbing
+    /// object (so travelled through it: Beer–Lambert over `t`). Objects are taken as
+    /// not nested: what a ray crosses inside one glass object is not looked at.
+    #[inline(always)]
+    pub fn arriving(&self, weight: Color, ray: &Ray, t: f32, surface: &Surface, index: u32) -> Color {
+        let material = self.material(index);
+        if !material.absorbs() || ray.dir.dot(surface.normal) <= 0.0 {
+            return weight;
+        }
+        weight * beer_lambert(material.absorption, t)
     }
 
     /// Whether a hit on object `index` by the `depth`-th ray of a chain sends rays on.
@@ -260,17 +276,20 @@ impl<'w, 's> Integrator<'w, 's> {
         let material = self.material(index);
         let depth = path.depth + 1;
         let worth = |w: Color| !(w.max_element() < self.cutoff);
-        let reflected = (material.reflectivity > 0.0)
-            .then(|| path.weight * material.reflectivity)
-            .filter(|&w| worth(w))
-            .map(|weight| {
-                let (side, from) = leaving(&path.ray, surface);
-                (Path { ray: reflected(&path.ray, side, from), weight, depth }, Sent::Reflected)
-            });
-        let transmitted = (material.transparency > 0.0)
-            .then(|| path.weight * material.transparency)
-            .filter(|&w| worth(w))
-            .map(|weight| {
+        // With `fresnel`, the transmitted share is split by the Fresnel reflectance.
+        let (reflectivity, transparency) = if material.fresnel && material.transparency > 0.0 {
+            let cos = path.ray.dir.dot(surface.normal);
+            let (from, to) = if cos < 0.0 { (OUTSIDE_IOR, material.ior) } else { (material.ior, OUTSIDE_IOR) };
+            material.split(fresnel_reflectance(cos, from, to))
+        } else {
+            (material.reflectivity, material.transparency)
+        };
+        let reflected = (reflectivity > 0.0).then(|| path.weight * reflectivity).filter(|&w| worth(w)).map(|weight| {
+            let (side, from) = leaving(&path.ray, surface);
+            (Path { ray: reflected(&path.ray, side, from), weight, depth }, Sent::Reflected)
+        });
+        let transmitted =
+            (transparency > 0.0).then(|| path.weight * transparency).filter(|&w| worth(w)).map(|weight| {
                 let (ray, kind) = transmitted_ray(&path.ray, surface, material.ior);
                 let kind = match kind {
                     Transmission::Refracted => Sent::Refracted,
@@ -368,6 +387,39 @@ pub fn towards_lanes(light: Vec3, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> To
         }
     }
     out
+}
+
+/// [`towards_lanes`] for any light: a light with a position as there (bit for bit),
+/// a directional one with [`Light::toward`] lane by lane. Cone and attenuation are
+/// not applied here (see [`Light::falloff`]).
+#[inline]
+pub fn towards_light_lanes(light: &Light, from: &[[f32; 8]; 3], n: &[[f32; 8]; 3]) -> Towards8 {
+    if let Some(position) = light.position() {
+        return towards_lanes(position, from, n);
+    }
+    let mut out = Towards8::default();
+    for lane in 0..8 {
+        let (l, distance) = light.toward(lane_of(from, lane));
+        out.n_dot_l[lane] = lane_of(n, lane).dot(l);
+        out.distance[lane] = distance;
+        for (row, l) in out.l.iter_mut().zip(l.to_array()) {
+            row[lane] = l;
+        }
+    }
+    out
+}
+
+/// [`towards`] for any light: a light with a position as there (bit for bit), a
+/// directional one with [`Light::toward`].
+#[inline(always)]
+fn towards_light(light: &Light, from: Vec3, n: Vec3) -> (Vec3, f32, f32) {
+    match light.position() {
+        Some(position) => towards(position, from, n),
+        None => {
+            let (l, distance) = light.toward(from);
+            (l, distance, n.dot(l))
+        }
+    }
 }
 
 /// Direction and distance to `light` from `from`, and the cosine with normal `n`.

@@ -15,7 +15,7 @@
 //! only on its own sample, and each sample adds its colours in an order fixed by its own
 //! rays, so a pixel's colour does not depend on which other pixels share its wave.
 
-use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, Towards8, lane_of, towards_lanes};
+use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, Towards8, lane_of, towards_light_lanes};
 use crate::accel::World;
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
@@ -96,6 +96,7 @@ impl Wave {
     /// each ray's colour (its hit's own, or the background) added to its sample.
     fn shade_level(&mut self, integrator: &Integrator, colors: &mut [Color], stats: &mut RayStats) {
         let Wave { level, paths, surfaces, shading, boxes, frames, blockers, .. } = self;
+        debug_assert_eq!(level.len(), paths.len());
         let world = integrator.world();
         surfaces.clear();
         shading.clear();
@@ -113,7 +114,9 @@ impl Wave {
             };
             let surface = integrator.surface(ray, hit, *index);
             surfaces.push(surface);
-            let s = integrator.shading(ray, &surface.get(), *index);
+            let surface = surface.get();
+            paths[k].0 = integrator.arriving(paths[k].0, ray, hit.t, &surface, *index);
+            let s = integrator.shading(ray, &surface, *index);
             shading.push(s);
             if !s.lit {
                 continue;
@@ -138,13 +141,18 @@ impl Wave {
         for light in &world.scene().lights {
             // One-sided shading may send a shadow ray from a surface's back through the
             // surface itself, which the culling assumes it does not.
-            let culled = culls && world.may_shadow(boxes, light.position, blockers);
+            // A light without a position (directional) is tested against everything.
+            let culled = culls && light.position().is_some_and(|p| world.may_shadow(boxes, p, blockers));
             let blockers = culled.then_some(&blockers[..]);
             for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
-                let seen = towards_lanes(light.position, from, normal);
+                let seen = towards_light_lanes(light, from, normal);
                 let mut live = 0u32;
+                let mut falloff = [0f32; 8];
                 for lane in 0..nodes.len() {
-                    live |= ((seen.n_dot_l[lane] > 0.0) as u32) << lane;
+                    if seen.n_dot_l[lane] > 0.0 {
+                        falloff[lane] = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
+                    }
+                    live |= ((falloff[lane] > 0.0) as u32) << lane;
                 }
                 let visible = visible_lanes(world, blockers, from, &seen, live);
                 for (lane, &k) in nodes.iter().enumerate() {
@@ -154,7 +162,15 @@ impl Wave {
                     stats.shadow += 1;
                     let (ray, found) = &level[k as usize];
                     let material = integrator.material(found.expect("lit hits hit").1);
-                    let lit = (lane_of(&seen.l, lane), seen.n_dot_l[lane], visible[lane]);
+                    let l = lane_of(&seen.l, lane);
+                    // Through absorbing glass the light takes its colour, ray by ray.
+                    let visible = match world.absorbs() {
+                        false => Color::splat(visible[lane]),
+                        true => {
+                            world.transmittance_color(&Ray { origin: lane_of(from, lane), dir: l }, seen.distance[lane])
+                        }
+                    };
+                    let lit = (l, seen.n_dot_l[lane], visible * falloff[lane]);
                     integrator.add_light(&mut shading[k as usize], material, ray.dir, lit, light);
                 }
             }

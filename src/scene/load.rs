@@ -11,7 +11,6 @@
 use super::{MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};
 use crate::geometry::{self, Cone, Cylinder, Mesh, Polygon, Quad, Shape, Sphere, Triangle};
-use crate::light::PointLight;
 use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
 use crate::texture::{ImageMap, Texture, planet};
@@ -20,6 +19,9 @@ use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
+
+mod light;
+use light::LightDesc;
 
 /// The built-in default scene: the seed room. The file in the repository is compiled in,
 /// so the two cannot drift apart.
@@ -99,14 +101,6 @@ struct SettingsDesc {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
-struct LightDesc {
-    position: S<V3>,
-    color: Option<S<V3>>,
-    intensity: Option<S<f32>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 struct MaterialDesc {
     color: Option<S<V3>>,
     texture: Option<S<TextureDesc>>,
@@ -116,6 +110,8 @@ struct MaterialDesc {
     reflectivity: Option<S<f32>>,
     transparency: Option<S<f32>>,
     ior: Option<S<f32>>,
+    fresnel: Option<bool>,
+    absorption: Option<S<V3>>,
 }
 
 #[derive(Deserialize)]
@@ -369,11 +365,7 @@ impl Ctx<'_> {
             scene.settings = self.settings(s.get_ref())?;
         }
         for l in &desc.light {
-            let l = l.get_ref();
-            let position = self.vec3(&l.position, "position")?;
-            let color = l.color.as_ref().map_or(Ok(Color::ONE), |c| self.color(c, "color"))?;
-            let intensity = l.intensity.as_ref().map_or(Ok(1.0), |i| self.non_negative(i, "intensity"))?;
-            scene.add_light(PointLight::new(position, color * intensity));
+            scene.add_light(self.light(l)?);
         }
         let mut names = HashMap::new();
         for (name, m) in &desc.material {
@@ -643,6 +635,13 @@ impl Ctx<'_> {
         if let Some(v) = &d.ior {
             m.ior = self.positive(v, "ior")?;
         }
+        m.fresnel = d.fresnel.unwrap_or(false);
+        if let Some(v) = &d.absorption {
+            m.absorption = self.color(v, "absorption")?;
+            if m.absorbs() && m.transparency == 0.0 {
+                return Err(self.err(v, "absorption", "needs transparency > 0: nothing travels inside to be absorbed"));
+            }
+        }
         if m.reflectivity + m.transparency > 1.0 + 1e-6 {
             let at = d.transparency.as_ref().or(d.reflectivity.as_ref()).expect("one is set when the sum exceeds 1");
             return Err(self.err(
@@ -829,6 +828,25 @@ mod tests {
             field(&format!("[[mesh]]\npositions = [[0, 0, 0], [1, 0, 0], [0, 1, 0]]\ntriangles = []\n{m}")),
             (7, "triangles".into())
         );
+    }
+
+    #[test]
+    fn glass_fields_load_and_bad_ones_are_located() {
+        let s = load("[material.g]\ntransparency = 0.9\nfresnel = true\nabsorption = [0.5, 0, 2]\n").unwrap();
+        assert!(s.materials[0].fresnel);
+        assert_eq!(s.materials[0].absorption, Color::new(0.5, 0.0, 2.0));
+        let s = load("[material.g]\ntransparency = 0.9\n").unwrap();
+        assert!(!s.materials[0].fresnel && s.materials[0].absorption == Color::ZERO);
+        let field = |body: &str| match load(body).unwrap_err() {
+            SceneError::At { line, field, .. } => (line, field),
+            e => panic!("{e}"),
+        };
+        assert_eq!(field("[material.g]\nabsorption = [1, 0, 0]\n"), (6, "absorption".into()));
+        assert_eq!(field("[material.g]\ntransparency = 0.5\nabsorption = [1, -1, 0]\n"), (7, "absorption".into()));
+        assert_eq!(field("[material.g]\ntransparency = 0.5\nabsorption = [1, inf, 0]\n"), (7, "absorption".into()));
+        assert_eq!(field("[material.g]\nfresnel = 1\n"), (6, "fresnel".into()));
+        // No absorption is fine without transparency.
+        assert!(load("[material.g]\nabsorption = [0, 0, 0]\n").is_ok());
     }
 
     #[test]

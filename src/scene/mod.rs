@@ -23,7 +23,7 @@ pub use load::{DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_file, loa
 
 use crate::camera::Camera;
 use crate::geometry::Shape;
-use crate::light::PointLight;
+use crate::light::Light;
 use crate::material::Material;
 use crate::math::Color;
 use std::path::Path;
@@ -111,7 +111,7 @@ impl Default for Settings {
 pub struct Scene {
     pub camera: Camera,
     pub settings: Settings,
-    pub lights: Vec<PointLight>,
+    pub lights: Vec<Light>,
     pub materials: Vec<Material>,
     pub objects: Vec<Object>,
 }
@@ -133,8 +133,10 @@ impl Scene {
         self
     }
 
-    pub fn add_light(&mut self, light: PointLight) -> &mut Self {
-        self.lights.push(light);
+    /// Adds a light (a [`Light`] or anything that converts into one: `PointLight`,
+    /// `DirectionalLight`, `SpotLight`).
+    pub fn add_light(&mut self, light: impl Into<Light>) -> &mut Self {
+        self.lights.push(light.into());
         self
     }
 

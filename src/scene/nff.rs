@@ -115,6 +115,7 @@ pub fn nff_material(color: Color, kd: f32, ks: f32, shine: f32, t: f32, ior: f32
         reflectivity,
         transparency,
         ior: if t > 0.0 { ior } else { 1.0 },
+        ..Material::default()
     };
     let share = m.local_share();
     let changed = sum > 1.0 || (kd > 0.0 && share <= 0.0);
@@ -829,8 +830,8 @@ mod tests {
         assert_eq!((s.camera.width, s.camera.height, s.camera.fov), (32, 24, 40.0));
         assert_eq!(s.camera.position, Vec3::new(0.0, 0.0, 5.0));
         let share = 2f32.sqrt() / 4.0;
-        assert_eq!(s.lights[0].color, Vec3::splat(share));
-        assert_eq!(s.lights[1].color, Vec3::splat(0.5));
+        assert_eq!(s.lights[0].color(), Vec3::splat(share));
+        assert_eq!(s.lights[1].color(), Vec3::splat(0.5));
         assert_eq!(s.settings.ambient, share);
         assert_eq!(s.materials.len(), 2);
         // Grouped by kind: 2 spheres, 1 cylinder, 2 cones, 2 meshes (flat, smooth).

@@ -13,6 +13,7 @@
 
 use super::Scene;
 use crate::geometry::Shape;
+use crate::light::Light;
 use crate::math::Vec3;
 use crate::texture::Texture;
 use std::fmt::Write as _;
@@ -80,7 +81,28 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
         num(st.cutoff)?
     );
     for l in &scene.lights {
-        let _ = writeln!(s, "\n[[light]]\nposition = {}\ncolor = {}", vec3(l.position)?, vec3(l.color)?);
+        match l {
+            Light::Point(p) => {
+                let _ = writeln!(s, "\n[[light]]\nposition = {}", vec3(p.position)?);
+            }
+            Light::Directional(d) => {
+                let _ = writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(d.direction)?);
+            }
+            Light::Spot(p) => {
+                let _ = writeln!(
+                    s,
+                    "\n[[light]]\nkind = \"spot\"\nposition = {}\ndirection = {}\ninner_angle = {}\nouter_angle = {}",
+                    vec3(p.position)?,
+                    vec3(p.direction)?,
+                    num(p.inner_angle)?,
+                    num(p.outer_angle)?
+                );
+            }
+        }
+        let _ = writeln!(s, "color = {}", vec3(l.color())?);
+        if let Some(a) = l.attenuation().filter(|a| !a.is_none()) {
+            let _ = writeln!(s, "attenuation = [{}, {}, {}]", num(a.constant)?, num(a.linear)?, num(a.quadratic)?);
+        }
     }
 
     let width = scene.materials.len().saturating_sub(1).to_string().len();
@@ -125,6 +147,12 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
             num(m.transparency)?,
             num(m.ior)?
         );
+        if m.fresnel {
+            let _ = writeln!(s, "fresnel = true");
+        }
+        if m.absorbs() {
+            let _ = writeln!(s, "absorption = {}", vec3(m.absorption)?);
+        }
     }
     flush(&mut s, out)?;
 
@@ -269,7 +297,7 @@ mod tests {
     use super::*;
     use crate::camera::Camera;
     use crate::geometry::{Cone, Cylinder, Mesh, Polygon, Quad, Sphere, Triangle};
-    use crate::light::PointLight;
+    use crate::light::{Attenuation, DirectionalLight, PointLight, SpotLight};
     use crate::material::Material;
     use crate::math::Color;
     use crate::sampler::Rng;
@@ -305,6 +333,11 @@ mod tests {
         s.settings.ambient = 0.288_675_13;
         s.settings.max_depth = 7;
         s.add_light(PointLight::new(Vec3::new(4.0, 3.0, 2.0), Color::splat(0.3)));
+        let falloff = Attenuation::new(1.0, 0.125, 1.0 / 3.0);
+        s.add_light(PointLight::new(Vec3::new(-4.0, 3.0, 2.0), Color::splat(0.7)).with_attenuation(falloff));
+        s.add_light(DirectionalLight::new(Vec3::new(0.3, -1.0, -0.7), Color::new(1.0, 0.9, 0.8)));
+        let spot = SpotLight::new(Vec3::new(0.0, 5.0, 1.0), Vec3::new(0.1, -1.0, 0.2), 12.5, 1.0 / 0.03, Color::ONE);
+        s.add_light(spot.with_attenuation(Attenuation::new(0.0, 0.0, 0.1)));
         let a = s.add_material(Material::color(Color::new(1.0, 0.9, 0.7)).reflective(0.5).shininess(3.0827));
         let b = s.add_material(Material {
             texture: Texture::Checker {
@@ -314,9 +347,12 @@ mod tests {
             },
             ..Material::default().transparent(0.3, 1.5)
         });
+        let glass = Material::default().transparent(0.9, 1.45).with_fresnel(true);
+        let glass = s.add_material(glass.absorbing(Color::new(0.1, 0.0, 1.0 / 3.0)));
         for i in 0..11 {
             s.add(Sphere::new(Vec3::new(i as f32 * 0.1, 0.3, -1.0 / 3.0), 1.0 / 7.0), a);
         }
+        s.add(Sphere::new(Vec3::new(0.0, -2.0, 0.0), 0.5), glass);
         s.add(Quad::new(Vec3::ZERO, Vec3::X * 2.0, Vec3::new(0.0, 0.3, 1.1)), b);
         let pts = vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
         s.add(Polygon::new(pts.clone()).unwrap(), a);
