@@ -5,8 +5,8 @@ use super::World;
 use crate::material::beer_lambert;
 use crate::math::{Color, Ray};
 
-/// Crossings of one object looked at along a shadow ray at most (a closed shape is
-/// crossed twice; a mesh may be crossed more often).
+/// Crossings of absorbing surfaces looked at along one shadow ray at most (a closed
+/// shape is crossed twice): the rest pass as clear glass.
 const MAX_CROSSINGS: usize = 64;
 
 impl World<'_> {
@@ -16,49 +16,43 @@ impl World<'_> {
         !self.absorbing.is_empty()
     }
 
-    /// [`World::transmittance`] as a colour: times, for each absorbing object, what its
-    /// material lets through over the length of the segment inside it. Where nothing
-    /// absorbs, the transmittance itself in every channel.
+    /// [`World::transmittance`] as a colour: times what absorbing glass lets through
+    /// along the segment, by the rule rays follow ([`crate::integrator::Integrator::arriving`]):
+    /// where the segment leaves an absorbing surface (meets it from the inside), the
+    /// stretch since the last absorbing surface it crossed (or its start) was inside
+    /// that material. So a box of six absorbing quads absorbs as a closed solid does.
     pub fn transmittance_color(&self, ray: &Ray, t_max: f32) -> Color {
         let light = self.transmittance(ray, t_max);
         if light == 0.0 || self.absorbing.is_empty() {
             return Color::splat(light);
         }
-        let mut color = Color::splat(light);
+        // The crossings of absorbing surfaces: distance, whether leaving, object.
+        let mut crossings = [(0f32, false, 0u32); MAX_CROSSINGS];
+        let mut n = 0;
         for &i in &self.absorbing {
-            let inside = self.length_inside(i as usize, ray, t_max);
-            if inside > 0.0 {
-                let object = &self.scene.objects[i as usize];
-                color *= beer_lambert(self.scene.material(object.material).absorption, inside);
+            let shape = &self.scene.objects[i as usize].shape;
+            if !meets(shape.bounds(), ray, t_max) {
+                continue;
             }
+            let mut t = 0.0f32;
+            while n < MAX_CROSSINGS {
+                let Some(hit) = self.intersect_object(i as usize, ray, t, t_max) else { break };
+                crossings[n] = (hit.t, ray.dir.dot(shape.surface(ray, &hit).normal) > 0.0, i);
+                n += 1;
+                t = hit.t.next_up();
+            }
+        }
+        let crossings = &mut crossings[..n];
+        crossings.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        let (mut color, mut since) = (Color::splat(light), 0.0f32);
+        for &(t, leaving, i) in crossings.iter() {
+            if leaving {
+                let material = self.scene.material(self.scene.objects[i as usize].material);
+                color *= beer_lambert(material.absorption, t - since);
+            }
+            since = t;
         }
         color
-    }
-
-    /// How much of the segment from `ray.origin` to distance `t_max` lies inside object
-    /// `i`, told by which side of its surface each crossing meets (the outward normal):
-    /// a segment whose first crossing leaves started inside.
-    fn length_inside(&self, i: usize, ray: &Ray, t_max: f32) -> f32 {
-        let shape = &self.scene.objects[i].shape;
-        if !meets(shape.bounds(), ray, t_max) {
-            return 0.0;
-        }
-        let (mut t, mut inside, mut entered) = (0.0f32, 0.0f32, None);
-        for _ in 0..MAX_CROSSINGS {
-            let Some(hit) = self.intersect_object(i, ray, t, t_max) else { break };
-            let leaving = ray.dir.dot(shape.surface(ray, &hit).normal) > 0.0;
-            if leaving {
-                inside += hit.t - entered.unwrap_or(0.0);
-                entered = None;
-            } else {
-                entered = Some(hit.t);
-            }
-            t = hit.t.next_up();
-        }
-        if let Some(from) = entered {
-            inside += t_max - from;
-        }
-        inside
     }
 }
 
