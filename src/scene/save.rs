@@ -78,6 +78,9 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
         st.samples,
         num(st.ambient)?
     );
+    if st.color == crate::film::ColorEncoding::Srgb {
+        let _ = writeln!(s, "color = \"srgb\"");
+    }
     for l in &scene.lights {
         let _ = writeln!(s, "\n[[light]]\nposition = {}\ncolor = {}", vec3(l.position)?, vec3(l.color)?);
     }
