@@ -51,6 +51,7 @@ fn test_map() -> Arc<ImageMap> {
 /// (the image plane spans y in [-1, 1] at distance 1), lit only by ambient 1.
 fn scene(distance: f32) -> (Scene, MaterialId) {
     let mut s = Scene::new(Camera::new(Vec3::new(0.0, 0.0, distance), Vec3::ZERO, Vec3::Y, 90.0, W, H));
+    s.settings.background = Color::splat(0.15);
     s.settings.ambient = 1.0;
     let m = s.add_material(Material { diffuse: 0.0, specular: 0.0, ..Material::default() }.with_texture(test_map()));
     (s, m)
@@ -172,15 +173,37 @@ fn an_image_wraps_a_cylinder_upright_and_unmirrored() {
     assert_eq!(at(0.3, -0.5), Some((3, 1)));
 }
 
-/// Saves the four renders side by side, for a look (and the documentation).
+/// Saves the four views side by side, three times the size and the round shapes seen
+/// from closer, for a look (docs/orientation.png is this picture).
 #[test]
 fn save_the_renders_to_look_at() {
-    let images = [quad(), sphere(), cylinder(), obj_card()];
-    let mut strip = Image::new(W * 4 + 12, H);
+    let (w, h) = (W * 3, H * 3);
+    let big = |mut s: Scene, d: f32| {
+        s.camera.position = Vec3::new(0.0, 0.0, d);
+        Renderer::new(&s).unwrap().size(w, h).render()
+    };
+    let with = |shape: Shape, d: f32| {
+        let (mut s, m) = scene(d);
+        s.add(shape, m);
+        big(s, d)
+    };
+    let card = whitted::scene::obj::read_obj(
+        "v -2 -1 0\nv 2 -1 0\nv 2 1 0\nv -2 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n".as_bytes(),
+        "card.obj",
+        false,
+    )
+    .unwrap();
+    let images = [
+        with(Quad::new(Vec3::new(-2.0, -1.0, 0.0), Vec3::new(4.0, 0.0, 0.0), Vec3::new(0.0, 2.0, 0.0)).into(), 1.0),
+        with(Sphere::new(Vec3::ZERO, 1.0).into(), 1.8),
+        with(Cylinder::new(Vec3::new(0.0, -1.0, 0.0), Vec3::Y, 1.0, 2.0, false).into(), 2.4),
+        with(card.into(), 1.0),
+    ];
+    let mut strip = Image::new(w * 4 + 3 * 6, h);
     for (i, img) in images.iter().enumerate() {
-        for y in 0..H {
-            for x in 0..W {
-                strip.set(i as u32 * (W + 4) + x, y, img.pixel(x, y));
+        for y in 0..h {
+            for x in 0..w {
+                strip.set(i as u32 * (w + 6) + x, y, img.pixel(x, y));
             }
         }
     }

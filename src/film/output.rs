@@ -67,6 +67,16 @@ impl FileFormat {
         })
     }
 
+    /// The name messages use.
+    pub fn name(self) -> &'static str {
+        match self {
+            FileFormat::Png => "PNG",
+            FileFormat::Jpeg => "JPEG",
+            FileFormat::Exr => "OpenEXR",
+            FileFormat::Hdr => "Radiance HDR",
+        }
+    }
+
     /// Bits per channel it can hold, the default first.
     fn bits(self) -> &'static [u32] {
         match self {
@@ -98,7 +108,7 @@ pub struct Encoding {
 pub enum OutputError {
     #[error("{path}: unknown image format (give the file a .png, .jpg, .jpeg, .exr or .hdr extension)")]
     UnknownFormat { path: PathBuf },
-    #[error("{path}: {format:?} files hold {allowed} bits per channel, not {bits}")]
+    #[error("{path}: {} files hold {allowed} bits per channel, not {bits}", format.name())]
     Bits { path: PathBuf, format: FileFormat, bits: u32, allowed: String },
     #[error("{path}: cannot write the image: {source}")]
     Io { path: PathBuf, source: std::io::Error },

@@ -50,7 +50,7 @@ pub fn complete(scene: &mut Scene, camera: bool, what: &str, notes: &mut Vec<Str
         scene.camera = default_view(bounds, WIDTH, HEIGHT);
         let p = scene.camera.position;
         notes.push(format!(
-            "{what} has no camera: viewing its bounds from the front and above, from ({:.3}, {:.3}, {:.3}), {WIDTH} x {HEIGHT}",
+            "{what} has no camera: viewing its bounds from the front and above, from ({:.3}, {:.3}, {:.3})",
             p.x, p.y, p.z
         ));
     }
