@@ -486,6 +486,16 @@ fn bad_files(dir: &Path) -> Vec<Bad> {
             part: "images[0]",
         },
         Bad {
+            name: "wrong-type.gltf",
+            file: with(&|d| d["accessors"][0]["type"] = json!("VEC2")),
+            part: "attributes.POSITION (accessors[0]): is Vec2 of F32, expected VEC3",
+        },
+        Bad {
+            name: "node-cycle.gltf",
+            file: with(&|d| d["nodes"][0]["children"] = json!([1, 0])),
+            part: "nodes[0]: reached twice",
+        },
+        Bad {
             name: "no-asset.gltf",
             file: with(&|d| {
                 d.as_object_mut().unwrap().remove("asset");

@@ -84,12 +84,13 @@ pub fn add_gltf(scene: &mut Scene, path: &Path, transform: Mat4) -> Result<Asset
         images: HashMap::new(),
         camera: None,
         lights: Vec::new(),
+        visited: vec![false; document.nodes().len()],
     };
     reader.check_document();
     let gltf_scene = document.default_scene().or_else(|| document.scenes().next());
     if let Some(s) = gltf_scene {
         for node in s.nodes() {
-            reader.node(scene, &node, transform, 0)?;
+            reader.node(scene, &node, transform)?;
         }
     }
     // Lights: relative intensities, the brightest at 1.
@@ -100,6 +101,14 @@ pub fn add_gltf(scene: &mut Scene, path: &Path, transform: Mat4) -> Result<Asset
     }
     let warnings = reader.warned.iter().map(|w| format!("{name}: {w}")).collect();
     Ok(Asset { camera: reader.camera, warnings })
+}
+
+/// What an accessor must hold to be read as.
+#[derive(Clone, Copy)]
+enum Kind {
+    Vec3,
+    TexCoord,
+    Index,
 }
 
 /// " (file.bin)" or "" for embedded and binary-chunk data, for messages.
@@ -153,10 +162,10 @@ struct Reader<'a, F: Fn(String) -> SceneError> {
     camera: Option<Camera>,
     /// Point lights: position, colour, intensity (normalised at the end).
     lights: Vec<(Vec3, Color, f32)>,
+    /// Nodes reached so far: a glTF node has at most one parent, and a file where one
+    /// is reached twice (a cycle, or a shared child) would otherwise loop or blow up.
+    visited: Vec<bool>,
 }
-
-/// Nodes deeper than this are taken for a cycle (the crate's validation does not look).
-const MAX_DEPTH: usize = 256;
 
 impl<F: Fn(String) -> SceneError> Reader<'_, F> {
     fn warn(&mut self, what: &str) {
@@ -175,10 +184,10 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
         }
     }
 
-    fn node(&mut self, scene: &mut Scene, node: &gltf::Node, parent: Mat4, depth: usize) -> Result<(), SceneError> {
-        if depth > MAX_DEPTH {
+    fn node(&mut self, scene: &mut Scene, node: &gltf::Node, parent: Mat4) -> Result<(), SceneError> {
+        if std::mem::replace(&mut self.visited[node.index()], true) {
             return Err((self.fail)(format!(
-                "nodes[{}]: the node hierarchy is deeper than {MAX_DEPTH} (a cycle?)",
+                "nodes[{}]: reached twice in the scene's node tree (a cycle, or a node with two parents)",
                 node.index()
             )));
         }
@@ -200,7 +209,7 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
             self.light(&light, world);
         }
         for child in node.children() {
-            self.node(scene, &child, world, depth + 1)?;
+            self.node(scene, &child, world)?;
         }
         Ok(())
     }
@@ -217,7 +226,8 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
         let position = world.transform_point3(Vec3::ZERO);
         let forward = world.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
         let up = world.transform_vector3(Vec3::Y).normalize_or(Vec3::Y);
-        let fov = p.yfov().to_degrees().clamp(1.0, 179.0);
+        let fov = p.yfov().to_degrees();
+        let fov = if fov.is_finite() { fov.clamp(1.0, 179.0) } else { 40.0 };
         let height = super::frame::HEIGHT;
         let width = match p.aspect_ratio() {
             Some(a) if a.is_finite() && a > 0.0 => {
@@ -271,13 +281,13 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
             let Some(pos_acc) = get(gltf::Semantic::Positions) else {
                 return Err((self.fail)(format!("{part}: no POSITION attribute")));
             };
-            self.check_accessor(&pos_acc, &format!("{part}.attributes.POSITION"))?;
+            self.check_accessor(&pos_acc, &format!("{part}.attributes.POSITION"), Kind::Vec3)?;
             let count = pos_acc.count();
             let normal_acc = get(gltf::Semantic::Normals);
             let uv_acc = get(gltf::Semantic::TexCoords(0));
-            for (acc, what) in [(&normal_acc, "NORMAL"), (&uv_acc, "TEXCOORD_0")] {
+            for (acc, what, kind) in [(&normal_acc, "NORMAL", Kind::Vec3), (&uv_acc, "TEXCOORD_0", Kind::TexCoord)] {
                 if let Some(a) = acc {
-                    self.check_accessor(a, &format!("{part}.attributes.{what}"))?;
+                    self.check_accessor(a, &format!("{part}.attributes.{what}"), kind)?;
                     if a.count() != count {
                         return Err((self.fail)(format!(
                             "{part}.attributes.{what}: {} entries for {count} positions",
@@ -287,7 +297,7 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
                 }
             }
             if let Some(a) = prim.indices() {
-                self.check_accessor(&a, &format!("{part}.indices"))?;
+                self.check_accessor(&a, &format!("{part}.indices"), Kind::Index)?;
             }
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| d.as_slice()));
             let bad = |what: &str| (self.fail)(format!("{part}.{what}: cannot be read"));
@@ -342,8 +352,26 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
 
     /// That the accessor's data lies inside its buffer view and the view inside its
     /// buffer, so reading it cannot go out of bounds.
-    fn check_accessor(&mut self, a: &gltf::Accessor, part: &str) -> Result<(), SceneError> {
+    fn check_accessor(&mut self, a: &gltf::Accessor, part: &str, kind: Kind) -> Result<(), SceneError> {
+        use gltf::accessor::{DataType as T, Dimensions as D};
         let here = format!("{part} (accessors[{}])", a.index());
+        let (dims, ty, norm) = (a.dimensions(), a.data_type(), a.normalized());
+        let fits = match kind {
+            Kind::Vec3 => dims == D::Vec3 && ty == T::F32,
+            Kind::TexCoord => dims == D::Vec2 && (ty == T::F32 || (norm && matches!(ty, T::U8 | T::U16))),
+            Kind::Index => dims == D::Scalar && matches!(ty, T::U8 | T::U16 | T::U32),
+        };
+        if !fits {
+            let want = match kind {
+                Kind::Vec3 => "VEC3 of floats",
+                Kind::TexCoord => "VEC2 of floats or normalized bytes or shorts",
+                Kind::Index => "SCALAR unsigned bytes, shorts or ints",
+            };
+            return Err((self.fail)(format!("{here}: is {dims:?} of {ty:?}, expected {want}")));
+        }
+        if a.count() == 0 {
+            return Err((self.fail)(format!("{here}: count is 0")));
+        }
         if a.sparse().is_some() {
             return Err((self.fail)(format!("{here}: sparse accessors are not supported")));
         }
@@ -364,9 +392,6 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
         let stride = view.stride().unwrap_or(size);
         if stride < size {
             return Err((self.fail)(format!("{here}: byteStride {stride} is less than the element size {size}")));
-        }
-        if a.count() == 0 {
-            return Ok(());
         }
         let end = (a.count() as u128 - 1) * stride as u128 + size as u128 + a.offset() as u128;
         if end > view.length() as u128 {
