@@ -880,6 +880,38 @@ mod tests {
     }
 
     #[test]
+    fn colour_settings_and_texture_colour_spaces_are_read_and_checked() {
+        let s = load("[settings]\ncolor = \"srgb\"\n").unwrap();
+        assert_eq!(s.settings.color, ColorEncoding::Srgb);
+        assert_eq!(load("").unwrap().settings.color, ColorEncoding::Linear);
+        let e = load("[settings]\ncolor = \"gamma\"\n").unwrap_err();
+        assert!(matches!(&e, SceneError::At { line: 6, field, .. } if field == "color"), "{e}");
+
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("grey.png");
+        ImageMap::from_fn(1, 1, |_, _| Vec3::splat(188.0 / 255.0)).save_png(&png).unwrap();
+        let texel = |space: &str| {
+            let src = format!(
+                "{CAMERA}[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\n\
+                 material = {{ texture = {{ kind = \"image\", path = \"grey.png\"{space} }} }}\n"
+            );
+            let s = load_str(&src, "t.toml", dir.path()).unwrap();
+            match &s.materials[0].texture {
+                Texture::Image { map, .. } => map.texel(0, 0).x,
+                _ => panic!("not an image"),
+            }
+        };
+        assert!((texel("") - 188.0 / 255.0).abs() < 1e-6, "linear: as stored");
+        assert!((texel(", color_space = \"srgb\"") - 0.5028).abs() < 1e-3, "sRGB 188 decodes to 0.5028");
+        let src = format!(
+            "{CAMERA}[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\n\
+             material = {{ texture = {{ kind = \"image\", path = \"grey.png\", color_space = \"rgb\" }} }}\n"
+        );
+        let e = load_str(&src, "t.toml", dir.path()).unwrap_err();
+        assert!(matches!(&e, SceneError::At { field, .. } if field == "color_space"), "{e}");
+    }
+
+    #[test]
     fn truncated_cones_load_closed_by_default() {
         let s = load("[[cone]]\nbase = [0, 0, -5]\naxis = [0, 1, 0]\nradius = 1\ntop_radius = 0.5\nheight = 2\nmaterial = { color = [1, 1, 1] }\n").unwrap();
         let Shape::Cone(c) = &s.objects[0].shape else { panic!("not a cone") };
