@@ -64,10 +64,10 @@ fn unwritable_output_fails_before_rendering_and_keeps_old_image() {
     let stderr = assert_clean_failure(&out, &missing_dir, "unwritable output");
     assert!(stderr.contains("no-dir/x.png"), "{stderr}");
 
-    let not_png = tmp.path().join("x.jpg");
-    let out = whitted(&["render", "-o", not_png.to_str().unwrap(), "--width", "8", "--height", "8"]);
-    let stderr = assert_clean_failure(&out, &not_png, "non-PNG output");
-    assert!(stderr.contains("x.jpg") && stderr.contains("PNG"), "{stderr}");
+    let unknown = tmp.path().join("x.tga");
+    let out = whitted(&["render", "-o", unknown.to_str().unwrap(), "--width", "8", "--height", "8"]);
+    let stderr = assert_clean_failure(&out, &unknown, "unknown output format");
+    assert!(stderr.contains("x.tga: unknown image format"), "{stderr}");
 
     // A failing render must not touch an existing good image.
     let good = tmp.path().join("good.png");

@@ -1,4 +1,8 @@
-//! The image being made, and writing it out.
+//! The image being made, and writing it out (formats in [`output`]).
+
+pub mod output;
+
+pub use output::{ColorEncoding, Encoding, FileFormat, OutputError, OutputOptions};
 
 use crate::math::Color;
 use std::io::Write;
@@ -10,16 +14,6 @@ pub struct Image {
     width: u32,
     height: u32,
     pixels: crate::pages::Zeroed<Color>,
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum OutputError {
-    #[error("{path}: only PNG output is supported (give the file a .png extension)")]
-    NotPng { path: PathBuf },
-    #[error("{path}: cannot write the image: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
-    #[error("{path}: cannot encode the image: {source}")]
-    Encode { path: PathBuf, source: image::ImageError },
 }
 
 impl Image {
@@ -60,24 +54,33 @@ impl Image {
     }
 }
 
-/// A PNG file written whole or not at all: the data goes to a temporary file beside the
+/// An image file written whole or not at all: the data goes to a temporary file beside the
 /// target, which is renamed over it only once complete, so a failed or interrupted
 /// render never leaves a half-written image or clobbers a good one (the temporary file
 /// is removed when this is dropped uncommitted).
 pub struct PendingOutput {
     path: PathBuf,
+    encoding: Encoding,
     temp: tempfile::NamedTempFile,
 }
 
 impl PendingOutput {
-    /// Checks up front that `path` can be written (before spending time rendering).
+    /// Checks up front that `path` names a known format and can be written (before
+    /// spending time rendering); default options (8-bit or half float, linear).
     pub fn create(path: &Path) -> Result<Self, OutputError> {
-        let is_png = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png"));
-        if !is_png {
-            return Err(OutputError::NotPng { path: path.to_owned() });
-        }
+        Self::create_with(path, OutputOptions::default())
+    }
+
+    /// [`PendingOutput::create`] with the colour encoding and bits per channel chosen.
+    pub fn create_with(path: &Path, options: OutputOptions) -> Result<Self, OutputError> {
+        let encoding = Encoding::for_path(path, options)?;
         let temp = temp_file_beside(path).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
-        Ok(PendingOutput { path: path.to_owned(), temp })
+        Ok(PendingOutput { path: path.to_owned(), encoding, temp })
+    }
+
+    /// The format, bits and colour encoding the file will get.
+    pub fn encoding(&self) -> Encoding {
+        self.encoding
     }
 
     /// Encodes `image` into the temporary file, syncs it and renames it into place.
@@ -86,10 +89,8 @@ impl PendingOutput {
         let io_err = |source| OutputError::Io { path: path.clone(), source };
         {
             let mut w = std::io::BufWriter::new(self.temp.as_file_mut());
-            image
-                .to_rgb8()
-                .write_to(&mut w, image::ImageFormat::Png)
-                .map_err(|source| OutputError::Encode { path: path.clone(), source })?;
+            output::encode_to(image, self.encoding, &mut w)
+                .map_err(|message| OutputError::Encode { path: path.clone(), message })?;
             w.flush().map_err(io_err)?;
         }
         self.temp.as_file().sync_all().map_err(io_err)?;
@@ -114,7 +115,8 @@ pub fn temp_file_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile>
     builder.tempfile_in(dir)
 }
 
-/// Writes `image` to `path` atomically.
+/// Writes `image` to `path` atomically, in the format its extension names (default
+/// options: the name is historical).
 pub fn write_png(image: &Image, path: &Path) -> Result<(), OutputError> {
     PendingOutput::create(path)?.commit(image)
 }
@@ -148,8 +150,8 @@ mod tests {
     }
 
     #[test]
-    fn unwritable_and_non_png_paths_are_refused_up_front() {
+    fn unwritable_and_unknown_paths_are_refused_up_front() {
         assert!(matches!(PendingOutput::create(Path::new("/nonexistent-dir/x.png")), Err(OutputError::Io { .. })));
-        assert!(matches!(PendingOutput::create(Path::new("x.jpg")), Err(OutputError::NotPng { .. })));
+        assert!(matches!(PendingOutput::create(Path::new("x.tga")), Err(OutputError::UnknownFormat { .. })));
     }
 }

@@ -216,7 +216,8 @@ impl Cone {
         // Snapped radially onto the side so secondary rays start on the surface. (Written
         // so that a pointed cone gets exactly `radius·(1 − v)`.)
         let rho = self.radius * (1.0 - v) + self.top_radius * v;
-        let uv = if want_uv { Vec2::new(u, v) } else { Vec2::ZERO };
+        // v runs down the image: its top row at the apex end, as on a cylinder.
+        let uv = if want_uv { Vec2::new(u, 1.0 - v) } else { Vec2::ZERO };
         Surface { point: self.base + h * self.axis + rho * out, normal, uv }
     }
 
@@ -574,7 +575,7 @@ mod tests {
             assert_close(h.t, 5.0 - radius, 1e-5);
             assert_vec_close(s.point, Vec3::new(0.0, y, -5.0 + radius), 1e-5);
             assert_vec_close(s.normal, frustum_normal(Vec3::Z), 1e-5);
-            assert_close(s.uv.y, (y + 1.0) / 2.0, 1e-5);
+            assert_close(s.uv.y, (1.0 - y) / 2.0, 1e-5);
         }
         // Above the top and below the base: nothing, open or closed.
         for cone in [frustum(false, false), frustum(true, true)] {

@@ -95,8 +95,9 @@ impl Cylinder {
             _ => {
                 let normal = radial.try_normalize().unwrap_or_else(|| orthonormal_basis(self.axis).0);
                 let uv = if want_uv {
+                    // v runs down the image: its top row at the top end (base + height·axis).
                     let v = if self.height > 0.0 { (h / self.height).clamp(0.0, 1.0) } else { 0.0 };
-                    Vec2::new(u(), v)
+                    Vec2::new(u(), 1.0 - v)
                 } else {
                     Vec2::ZERO
                 };
@@ -153,7 +154,7 @@ mod tests {
         let (h, s) = hit(&c, &ray([0.6, 0.5, 0.0], [0.0, 0.0, -1.0]));
         assert_close(h.t, 4.2, 1e-5);
         assert_vec_close(s.normal, Vec3::new(0.6, 0.0, 0.8), 1e-5);
-        assert_close(s.uv.y, 0.75, 1e-5);
+        assert_close(s.uv.y, 0.25, 1e-5); // 3/4 of the way up: a quarter down the image
     }
 
     #[test]
@@ -282,7 +283,7 @@ mod tests {
         let (h, s) = hit(&c, &ray([1.0, 0.0, 0.0], [0.0, 0.0, -1.0]));
         assert_close(h.t, 2.5, 1e-5);
         assert_vec_close(s.normal, Vec3::Z, 1e-5);
-        assert_close(s.uv.y, 0.25, 1e-5);
+        assert_close(s.uv.y, 0.75, 1e-5);
         let (h, s) = hit(&c, &ray([6.0, 0.1, -3.0], [-1.0, 0.0, 0.0]));
         assert_eq!(h.part, part::TOP_CAP);
         assert_close(h.t, 2.0, 1e-5);

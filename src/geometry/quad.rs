@@ -66,7 +66,9 @@ impl Quad {
     pub fn surface(&self, _ray: &Ray, hit: &Hit) -> Surface {
         // Rebuilt from (a, b) rather than `origin + t dir`: exactly on the plane.
         let point = self.corner + hit.uv.x * self.edge_u + hit.uv.y * self.edge_v;
-        Surface { point, normal: self.normal, uv: hit.uv }
+        // Texture v runs down the image (row 0 at v = 0), edge_v up it: corner is the
+        // image's bottom-left, so a quad with edge_v pointing up shows it upright.
+        Surface { point, normal: self.normal, uv: Vec2::new(hit.uv.x, 1.0 - hit.uv.y) }
     }
 
     pub fn bounds(&self) -> Aabb {

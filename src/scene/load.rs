@@ -10,6 +10,7 @@
 
 use super::{MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};
+use crate::film::ColorEncoding;
 use crate::geometry::{self, Cone, Cylinder, Mesh, Polygon, Quad, Shape, Sphere, Triangle};
 use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
@@ -35,19 +36,29 @@ const MAX_SAMPLES: i64 = 65536;
 
 /// Reads and checks a scene file. Relative texture paths are relative to the file.
 pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
+    load_file_with_warnings(path).map(|(scene, _)| scene)
+}
+
+/// [`load_file`], with the warnings of the files it places (`[[gltf]]` assets).
+pub(super) fn load_file_with_warnings(path: &Path) -> Result<(Scene, Vec<String>), SceneError> {
     let name = path.display().to_string();
     let src = std::fs::read_to_string(path)
         .map_err(|e| SceneError::File { file: name.clone(), message: format!("cannot read the scene: {e}") })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    load_str(&src, &name, base)
+    load_str_with_warnings(&src, &name, base)
 }
 
 /// Parses a scene from text. `name` is used in messages; relative paths in the scene
 /// are resolved against `base_dir`.
 pub fn load_str(src: &str, name: &str, base_dir: &Path) -> Result<Scene, SceneError> {
-    let ctx = Ctx { name, src, base_dir, images: Default::default() };
+    load_str_with_warnings(src, name, base_dir).map(|(scene, _)| scene)
+}
+
+fn load_str_with_warnings(src: &str, name: &str, base_dir: &Path) -> Result<(Scene, Vec<String>), SceneError> {
+    let ctx = Ctx { name, src, base_dir, images: Default::default(), warnings: Default::default() };
     let desc: FileDesc = toml::from_str(src).map_err(|e| ctx.toml_error(&e))?;
-    ctx.build(desc)
+    let scene = ctx.build(desc)?;
+    Ok((scene, ctx.warnings.into_inner()))
 }
 
 type V3 = [f32; 3];
@@ -76,6 +87,16 @@ struct FileDesc {
     triangle: Vec<S<TriangleDesc>>,
     #[serde(default)]
     mesh: Vec<S<MeshDesc>>,
+    #[serde(default)]
+    gltf: Vec<S<GltfDesc>>,
+}
+
+/// A glTF asset placed in the scene: its meshes, materials and lights (not its cameras).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GltfDesc {
+    file: S<String>,
+    transform: Option<S<TransformDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -97,6 +118,8 @@ struct SettingsDesc {
     samples: Option<S<i64>>,
     ambient: Option<S<f32>>,
     cutoff: Option<S<f32>>,
+    /// `"linear"` (default) or `"srgb"`: how 8- and 16-bit output files encode colour.
+    color: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -127,6 +150,8 @@ struct TextureDesc {
     path: Option<S<String>>,
     seed: Option<S<i64>>,
     resolution: Option<S<[i64; 2]>>,
+    /// Image files: `"linear"` (default: values as stored) or `"srgb"` (decoded).
+    color_space: Option<S<String>>,
 }
 
 /// `material = "name"` or an inline table `material = { color = [1, 0, 0] }`.
@@ -256,7 +281,9 @@ struct Ctx<'a> {
     src: &'a str,
     base_dir: &'a Path,
     /// Each image file is decoded once however many materials use it.
-    images: std::cell::RefCell<HashMap<PathBuf, Arc<ImageMap>>>,
+    images: std::cell::RefCell<HashMap<(PathBuf, ColorEncoding), Arc<ImageMap>>>,
+    /// Warnings of the files placed in the scene.
+    warnings: std::cell::RefCell<Vec<String>>,
 }
 
 type R<T> = Result<T, SceneError>;
@@ -473,6 +500,17 @@ impl Ctx<'_> {
             let m = m.get_ref();
             place(&mut scene, mesh.into(), &m.material, &m.transform)?;
         }
+        for g in &desc.gltf {
+            let g = g.get_ref();
+            let transform = match &g.transform {
+                Some(t) => glam::Mat4::from(self.transform(t.get_ref())?),
+                None => glam::Mat4::IDENTITY,
+            };
+            let path = self.base_dir.join(g.file.get_ref());
+            let asset = super::gltf::add_gltf(&mut scene, &path, transform)
+                .map_err(|e| self.err(&g.file, "file", e.to_string()))?;
+            self.warnings.borrow_mut().extend(asset.warnings);
+        }
         Ok(scene)
     }
 
@@ -604,6 +642,11 @@ impl Ctx<'_> {
         if let Some(c) = &s.cutoff {
             out.cutoff = self.non_negative(c, "cutoff")?;
         }
+        if let Some(c) = &s.color {
+            out.color = ColorEncoding::parse(c.get_ref()).ok_or_else(|| {
+                self.err(c, "color", format!("expected \"linear\" or \"srgb\", got {:?}", c.get_ref()))
+            })?;
+        }
         Ok(out)
     }
 
@@ -659,7 +702,7 @@ impl Ctx<'_> {
         let allowed: &[&str] = match kind {
             "stripes" => &["colors", "axis", "width"],
             "checker" => &["colors", "size", "offset"],
-            "image" => &["path", "scale", "offset"],
+            "image" => &["path", "scale", "offset", "color_space"],
             "planet" => &["seed", "resolution", "scale", "offset"],
             other => {
                 return Err(self.err(
@@ -669,7 +712,7 @@ impl Ctx<'_> {
                 ));
             }
         };
-        let present: [(&str, Option<usize>); 9] = [
+        let present: [(&str, Option<usize>); 10] = [
             ("colors", t.colors.as_ref().map(|v| v.span().start)),
             ("axis", t.axis.as_ref().map(|v| v.span().start)),
             ("width", t.width.as_ref().map(|v| v.span().start)),
@@ -679,6 +722,7 @@ impl Ctx<'_> {
             ("path", t.path.as_ref().map(|v| v.span().start)),
             ("seed", t.seed.as_ref().map(|v| v.span().start)),
             ("resolution", t.resolution.as_ref().map(|v| v.span().start)),
+            ("color_space", t.color_space.as_ref().map(|v| v.span().start)),
         ];
         for (field, at) in present {
             if let Some(at) = at
@@ -737,7 +781,14 @@ impl Ctx<'_> {
                 required(t.path.is_some(), "path")?;
                 let p = t.path.as_ref().expect("checked");
                 let path = self.base_dir.join(p.get_ref());
-                let map = self.image(&path).map_err(|e| self.err(p, "path", format!("{}: {e}", path.display())))?;
+                let encoding = match &t.color_space {
+                    None => ColorEncoding::Linear,
+                    Some(c) => ColorEncoding::parse(c.get_ref()).ok_or_else(|| {
+                        self.err(c, "color_space", format!("expected \"linear\" or \"srgb\", got {:?}", c.get_ref()))
+                    })?,
+                };
+                let map =
+                    self.image(&path, encoding).map_err(|e| self.err(p, "path", format!("{}: {e}", path.display())))?;
                 Ok(Texture::Image {
                     map,
                     scale: vec2(&t.scale, "scale", Vec2::ONE)?,
@@ -769,12 +820,13 @@ impl Ctx<'_> {
         }
     }
 
-    fn image(&self, path: &Path) -> Result<Arc<ImageMap>, crate::texture::TextureError> {
-        if let Some(m) = self.images.borrow().get(path) {
+    fn image(&self, path: &Path, encoding: ColorEncoding) -> Result<Arc<ImageMap>, crate::texture::TextureError> {
+        let key = (path.to_owned(), encoding);
+        if let Some(m) = self.images.borrow().get(&key) {
             return Ok(m.clone());
         }
-        let map = Arc::new(ImageMap::load(path)?);
-        self.images.borrow_mut().insert(path.to_owned(), map.clone());
+        let map = Arc::new(ImageMap::load_as(path, encoding)?);
+        self.images.borrow_mut().insert(key, map.clone());
         Ok(map)
     }
 }
@@ -847,6 +899,38 @@ mod tests {
         assert_eq!(field("[material.g]\nfresnel = 1\n"), (6, "fresnel".into()));
         // No absorption is fine without transparency.
         assert!(load("[material.g]\nabsorption = [0, 0, 0]\n").is_ok());
+    }
+
+    #[test]
+    fn colour_settings_and_texture_colour_spaces_are_read_and_checked() {
+        let s = load("[settings]\ncolor = \"srgb\"\n").unwrap();
+        assert_eq!(s.settings.color, ColorEncoding::Srgb);
+        assert_eq!(load("").unwrap().settings.color, ColorEncoding::Linear);
+        let e = load("[settings]\ncolor = \"gamma\"\n").unwrap_err();
+        assert!(matches!(&e, SceneError::At { line: 6, field, .. } if field == "color"), "{e}");
+
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("grey.png");
+        ImageMap::from_fn(1, 1, |_, _| Vec3::splat(188.0 / 255.0)).save_png(&png).unwrap();
+        let texel = |space: &str| {
+            let src = format!(
+                "{CAMERA}[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\n\
+                 material = {{ texture = {{ kind = \"image\", path = \"grey.png\"{space} }} }}\n"
+            );
+            let s = load_str(&src, "t.toml", dir.path()).unwrap();
+            match &s.materials[0].texture {
+                Texture::Image { map, .. } => map.texel(0, 0).x,
+                _ => panic!("not an image"),
+            }
+        };
+        assert!((texel("") - 188.0 / 255.0).abs() < 1e-6, "linear: as stored");
+        assert!((texel(", color_space = \"srgb\"") - 0.5028).abs() < 1e-3, "sRGB 188 decodes to 0.5028");
+        let src = format!(
+            "{CAMERA}[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\n\
+             material = {{ texture = {{ kind = \"image\", path = \"grey.png\", color_space = \"rgb\" }} }}\n"
+        );
+        let e = load_str(&src, "t.toml", dir.path()).unwrap_err();
+        assert!(matches!(&e, SceneError::At { field, .. } if field == "color_space"), "{e}");
     }
 
     #[test]

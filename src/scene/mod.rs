@@ -12,7 +12,9 @@
 //! ```
 
 mod error;
+pub mod frame;
 pub mod generate;
+pub mod gltf;
 mod load;
 pub mod nff;
 pub mod obj;
@@ -25,7 +27,7 @@ use crate::camera::Camera;
 use crate::geometry::Shape;
 use crate::light::Light;
 use crate::material::Material;
-use crate::math::Color;
+use crate::math::{Color, Vec3};
 use std::path::Path;
 
 /// The scene file formats [`load_path`] reads.
@@ -35,13 +37,20 @@ pub enum Format {
     Toml,
     /// Eric Haines' Neutral File Format ([`nff`]).
     Nff,
+    /// A Wavefront OBJ mesh on its own ([`obj`]), in the default view ([`frame`]).
+    Obj,
+    /// glTF 2.0, `.gltf` or `.glb` ([`gltf`]).
+    Gltf,
 }
 
 impl Format {
-    /// By extension: `.nff` (any case) is NFF, anything else TOML.
+    /// By extension (any case): `.nff`, `.obj`, `.gltf` and `.glb`; anything else TOML.
     pub fn of_path(path: &Path) -> Format {
-        match path.extension().and_then(|e| e.to_str()) {
-            Some(e) if e.eq_ignore_ascii_case("nff") => Format::Nff,
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+        match ext.as_str() {
+            "nff" => Format::Nff,
+            "obj" => Format::Obj,
+            "gltf" | "glb" => Format::Gltf,
             _ => Format::Toml,
         }
     }
@@ -54,6 +63,8 @@ pub struct Loaded {
     /// The reader's warnings (skipped or adjusted entities); [`Scene::warnings`] adds
     /// those about the scene as a whole.
     pub warnings: Vec<String>,
+    /// What the reader filled in (a default camera or light), worth a line on stderr.
+    pub notes: Vec<String>,
     /// For NFF: what the file held and its size.
     pub nff: Option<nff::Counts>,
 }
@@ -61,11 +72,25 @@ pub struct Loaded {
 /// Reads a scene file in the given format.
 pub fn load_path(path: &Path, format: Format) -> Result<Loaded, SceneError> {
     match format {
-        Format::Toml => Ok(Loaded { scene: load_file(path)?, warnings: Vec::new(), nff: None }),
+        Format::Toml => {
+            let (scene, warnings) = load::load_file_with_warnings(path)?;
+            Ok(Loaded { scene, warnings, notes: Vec::new(), nff: None })
+        }
         Format::Nff => {
             let n = nff::load_nff(path)?;
-            Ok(Loaded { scene: n.scene, warnings: n.warnings, nff: Some(n.counts) })
+            Ok(Loaded { scene: n.scene, warnings: n.warnings, notes: Vec::new(), nff: Some(n.counts) })
         }
+        Format::Obj => {
+            let mesh = obj::load_obj(path, true)?;
+            let placeholder = Camera::new(Vec3::Z, Vec3::ZERO, Vec3::Y, 40.0, frame::WIDTH, frame::HEIGHT);
+            let mut scene = Scene::new(placeholder);
+            let m = scene.add_material(Material::default());
+            scene.add(mesh, m);
+            let mut notes = Vec::new();
+            frame::complete(&mut scene, false, &path.display().to_string(), &mut notes);
+            Ok(Loaded { scene, warnings: Vec::new(), notes, nff: None })
+        }
+        Format::Gltf => self::gltf::load_gltf(path),
     }
 }
 
@@ -93,6 +118,8 @@ pub struct Settings {
     /// A ray whose share of its pixel (largest channel) falls below this is not
     /// followed, as POV-Ray's `adc_bailout`; 0 follows every ray to `max_depth`.
     pub cutoff: f32,
+    /// How 8- and 16-bit output files encode colour (`[settings] color`).
+    pub color: crate::film::ColorEncoding,
 }
 
 impl Default for Settings {
@@ -103,6 +130,7 @@ impl Default for Settings {
             samples: 1,
             ambient: 0.2,
             cutoff: crate::integrator::DEFAULT_CUTOFF,
+            color: crate::film::ColorEncoding::Linear,
         }
     }
 }

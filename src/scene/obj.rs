@@ -3,7 +3,8 @@
 //! `v`, `v/t`, `v//n` and `v/t/n` references, negative ones counting back). Grouping,
 //! material and curve statements are skipped; anything else is an error, which also
 //! catches a file that is not OBJ at all. Read line by line, so files of any size
-//! stream through a fixed buffer.
+//! stream through a fixed buffer. Texture coordinates are flipped on read (`v` becomes
+//! `1 - v`): OBJ puts `v = 0` at the bottom of the image, the renderer at the top row.
 
 use super::SceneError;
 use crate::geometry::{Mesh, MeshError};
@@ -127,7 +128,8 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
             }
             "vt" => {
                 let v = floats(words, 1, 3)?;
-                uvs.push(Vec2::new(v[0], v.get(1).copied().unwrap_or(0.0)));
+                // OBJ's v runs up the image (0 at the bottom row); ours runs down.
+                uvs.push(Vec2::new(v[0], 1.0 - v.get(1).copied().unwrap_or(0.0)));
             }
             "f" => {
                 face.clear();

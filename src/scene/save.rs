@@ -80,6 +80,9 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
         num(st.ambient)?,
         num(st.cutoff)?
     );
+    if st.color == crate::film::ColorEncoding::Srgb {
+        let _ = writeln!(s, "color = \"srgb\"");
+    }
     for l in &scene.lights {
         match l {
             Light::Point(p) => {

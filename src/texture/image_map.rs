@@ -6,9 +6,13 @@ use std::path::Path;
 use image::{ImageError, ImageFormat, ImageReader};
 
 use super::{TextureError, wrap01};
+use crate::film::ColorEncoding;
+use crate::film::output::srgb_decode;
 use crate::math::{Color, Vec2, Vec3};
 
-/// A grid of colours, row 0 at the top (as image files store them, and as `v = 0` means).
+/// A grid of colours, row 0 at the top (as image files store them, and as `v = 0` means:
+/// texture coordinates run right and down the image, as in glTF; the OBJ reader and the
+/// shapes turn their own conventions into this one).
 /// Never empty, so sampling needs no special case.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ImageMap {
@@ -39,14 +43,30 @@ impl ImageMap {
     /// value (255 for 8-bit): no sRGB decoding, because the renderer writes its results
     /// without gamma too, as the program it replaces did, so a colour round-trips.
     pub fn load(path: &Path) -> Result<ImageMap, TextureError> {
+        Self::load_as(path, ColorEncoding::Linear)
+    }
+
+    /// [`ImageMap::load`], decoding the stored values from `encoding`: sRGB for photos
+    /// and painted textures (what glTF's colour textures are), linear (values as they
+    /// are) for data and for the project's own round trips.
+    pub fn load_as(path: &Path, encoding: ColorEncoding) -> Result<ImageMap, TextureError> {
         let bytes = std::fs::read(path).map_err(|e| match e.kind() {
             std::io::ErrorKind::NotFound => TextureError::NotFound(e),
             _ => TextureError::Unreadable(e),
         })?;
+        Self::decode(bytes, ImageFormat::from_path(path).ok(), encoding)
+    }
+
+    /// An image file's bytes decoded, `hint` the format its name or MIME type gives.
+    pub fn decode(
+        bytes: Vec<u8>,
+        hint: Option<ImageFormat>,
+        encoding: ColorEncoding,
+    ) -> Result<ImageMap, TextureError> {
         let mut reader = ImageReader::new(Cursor::new(bytes));
         // The content decides and the name is only the fallback: a JPEG named .png still
         // loads, and garbage named .png is reported as a corrupt PNG, not as unsupported.
-        if let Ok(format) = ImageFormat::from_path(path) {
+        if let Some(format) = hint {
             reader.set_format(format);
         }
         let reader = reader.with_guessed_format().map_err(TextureError::Unreadable)?;
@@ -59,7 +79,17 @@ impl ImageMap {
             return Err(TextureError::Empty { width, height });
         }
         let texels = image.to_rgb32f().pixels().map(|p| Vec3::from(p.0)).collect();
-        Ok(Self::from_texels(width, height, texels))
+        Ok(Self::from_texels(width, height, texels).decoded(encoding))
+    }
+
+    /// The map with its texels decoded from `encoding` to linear values.
+    pub fn decoded(mut self, encoding: ColorEncoding) -> Self {
+        if encoding == ColorEncoding::Srgb {
+            for t in &mut self.texels {
+                *t = Vec3::new(srgb_decode(t.x), srgb_decode(t.y), srgb_decode(t.z));
+            }
+        }
+        self
     }
 
     pub fn width(&self) -> u32 {

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use whitted::accel::AccelKind;
-use whitted::film::PendingOutput;
+use whitted::film::{ColorEncoding, OutputOptions, PendingOutput};
 use whitted::render::Renderer;
 use whitted::scene::{self, Loaded, MAX_RESOLUTION};
 
@@ -21,7 +21,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render a scene to a PNG file.
+    /// Render a scene to an image file (PNG, JPEG, OpenEXR or Radiance HDR).
     Render(RenderArgs),
     /// Measure ray rates, build time and memory on built-in scenes and meshes.
     Bench(BenchArgs),
@@ -110,15 +110,23 @@ struct ViewArgs {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file: TOML, or NFF (by its .nff extension, or --format). Without one, the
-    /// built-in seed room (scenes/room.toml).
+    /// Scene file: TOML, NFF, OBJ or glTF (.gltf, .glb), by extension or --format.
+    /// Without one, the built-in seed room (scenes/room.toml).
     scene: Option<PathBuf>,
     /// Scene format, instead of guessing from the extension.
     #[arg(long, value_enum)]
     format: Option<Format>,
-    /// Output PNG; by default the scene's name with .png, in the current folder.
+    /// Output image: .png, .jpg, .exr or .hdr; by default the scene's name with .png,
+    /// in the current folder.
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// How PNG and JPEG files encode colour (default: the scene's `[settings] color`,
+    /// else linear). EXR and HDR are always linear.
+    #[arg(long, value_parser = ["linear", "srgb"])]
+    color: Option<String>,
+    /// Bits per channel: PNG 8 (default) or 16, EXR 16 (half float, default) or 32.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(8..=32))]
+    bits: Option<u32>,
     /// Image width in pixels (overrides the scene's camera).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION))]
     width: Option<u32>,
@@ -156,6 +164,8 @@ struct RenderArgs {
 enum Format {
     Toml,
     Nff,
+    Obj,
+    Gltf,
 }
 
 impl Format {
@@ -164,6 +174,8 @@ impl Format {
         match asked {
             Some(Format::Toml) => scene::Format::Toml,
             Some(Format::Nff) => scene::Format::Nff,
+            Some(Format::Obj) => scene::Format::Obj,
+            Some(Format::Gltf) => scene::Format::Gltf,
             None => scene::Format::of_path(path),
         }
     }
@@ -214,7 +226,7 @@ fn load_scene(path: Option<&Path>, format: Option<Format>) -> Result<(Loaded, St
         None => {
             let scene = scene::load_str(scene::DEFAULT_SCENE, scene::DEFAULT_SCENE_NAME, Path::new("scenes"))
                 .map_err(|e| e.to_string())?;
-            Ok((Loaded { scene, warnings: Vec::new(), nff: None }, "room".to_owned()))
+            Ok((Loaded { scene, warnings: Vec::new(), notes: Vec::new(), nff: None }, "room".to_owned()))
         }
     }
 }
@@ -237,10 +249,15 @@ fn render(args: RenderArgs) -> Result<(), String> {
         for w in loaded.warnings.iter().chain(&scene.warnings()) {
             eprintln!("warning: {w}");
         }
+        for n in &loaded.notes {
+            eprintln!("note: {n}");
+        }
     }
     let output = args.output.unwrap_or_else(|| PathBuf::from(format!("{stem}.png")));
     // Claim the output before rendering, so a bad path fails in milliseconds, not after.
-    let pending = PendingOutput::create(&output).map_err(|e| e.to_string())?;
+    let color = args.color.as_deref().and_then(ColorEncoding::parse).unwrap_or(scene.settings.color);
+    let pending =
+        PendingOutput::create_with(&output, OutputOptions { color, bits: args.bits }).map_err(|e| e.to_string())?;
 
     let mut renderer = Renderer::new(scene).map_err(|e| e.to_string())?;
     let (w, h) = (args.width.unwrap_or(scene.camera.width), args.height.unwrap_or(scene.camera.height));
