@@ -72,6 +72,7 @@ pub struct PendingOutput {
 impl PendingOutput {
     /// Checks up front that `path` can be written (before spending time rendering).
     pub fn create(path: &Path) -> Result<Self, OutputError> {
+        check_target(path).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
         let is_png = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png"));
         if !is_png {
             return Err(OutputError::NotPng { path: path.to_owned() });
@@ -93,7 +94,10 @@ impl PendingOutput {
             w.flush().map_err(io_err)?;
         }
         self.temp.as_file().sync_all().map_err(io_err)?;
-        self.temp.persist(&path).map_err(|e| io_err(e.error))?;
+        let temp_path = self.temp.path().to_owned();
+        let result = self.temp.persist(&path);
+        crate::cleanup::forget(&temp_path);
+        result.map_err(|e| io_err(e.error))?;
         Ok(())
     }
 }
@@ -103,6 +107,7 @@ impl PendingOutput {
 /// (what the umask allows), not the owner-only mode temporary files get by default,
 /// since it becomes the user's output.
 pub fn temp_file_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    check_target(path)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -111,7 +116,32 @@ pub fn temp_file_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile>
     builder.prefix(".whitted-").suffix(".tmp");
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    builder.tempfile_in(dir)
+    // The temporary name means nothing to the user: errors keep only their kind.
+    let temp = builder.tempfile_in(dir).map_err(|e| std::io::Error::from(e.kind()))?;
+    // Listed so that an interrupted run removes it (see `crate::cleanup`).
+    crate::cleanup::register(temp.path());
+    Ok(temp)
+}
+
+/// Whether `path` can be an output file, in terms of that path: not a folder, and in a
+/// folder that exists.
+pub fn check_target(path: &Path) -> std::io::Result<()> {
+    use std::io::{Error, ErrorKind};
+    let text = path.as_os_str().to_string_lossy();
+    if path.is_dir() || text.ends_with('/') || text.ends_with(std::path::MAIN_SEPARATOR) {
+        let example = path.join("room.png");
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!("this is a folder; give a file name, such as {}", example.display()),
+        ));
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if !dir.is_dir() {
+            let what = if dir.exists() { "is not a folder" } else { "does not exist" };
+            return Err(Error::new(ErrorKind::NotFound, format!("the folder {} {what}", dir.display())));
+        }
+    }
+    Ok(())
 }
 
 /// Writes `image` to `path` atomically.

@@ -16,7 +16,7 @@ use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
 use crate::texture::{ImageMap, Texture, planet};
 use serde::Deserialize;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
@@ -58,8 +58,9 @@ struct FileDesc {
     settings: Option<S<SettingsDesc>>,
     #[serde(default)]
     light: Vec<S<LightDesc>>,
+    /// In file order, so that materials keep their order through `convert`.
     #[serde(default)]
-    material: BTreeMap<String, S<MaterialDesc>>,
+    material: indexmap::IndexMap<String, S<MaterialDesc>>,
     #[serde(default)]
     sphere: Vec<S<SphereDesc>>,
     #[serde(default)]
@@ -480,7 +481,50 @@ impl Ctx<'_> {
             let m = m.get_ref();
             place(&mut scene, mesh.into(), &m.material, &m.transform)?;
         }
+        scene.labels = self.labels(&desc);
         Ok(scene)
+    }
+
+    /// The file's names for the materials and objects, in the order `build` adds them:
+    /// named materials, then inline ones object by object; objects kind by kind.
+    fn labels(&self, desc: &FileDesc) -> super::Labels {
+        let kind = |t: &Option<S<TextureDesc>>| t.as_ref().map(|t| t.get_ref().kind.get_ref().clone());
+        let mut labels = super::Labels::default();
+        for (name, m) in &desc.material {
+            labels.materials.push(super::MaterialLabel {
+                name: Some(name.clone()),
+                owner: None,
+                line: self.line_col(m.span().start).0,
+                texture: kind(&m.get_ref().texture),
+            });
+        }
+        let mut object = |table: &'static str, index: usize, at: usize, material: &S<MaterialRef>| {
+            let label = super::ObjectLabel { table, index: index + 1, line: self.line_col(at).0 };
+            if let MaterialRef::Inline(d) = material.get_ref() {
+                labels.materials.push(super::MaterialLabel {
+                    name: None,
+                    owner: Some(format!("[[{table}]] {}", index + 1)),
+                    line: self.line_col(material.span().start).0,
+                    texture: kind(&d.texture),
+                });
+            }
+            labels.objects.push(label);
+        };
+        macro_rules! each {
+            ($list:expr, $table:literal) => {
+                for (i, o) in $list.iter().enumerate() {
+                    object($table, i, o.span().start, &o.get_ref().material);
+                }
+            };
+        }
+        each!(desc.sphere, "sphere");
+        each!(desc.quad, "quad");
+        each!(desc.polygon, "polygon");
+        each!(desc.cylinder, "cylinder");
+        each!(desc.cone, "cone");
+        each!(desc.triangle, "triangle");
+        each!(desc.mesh, "mesh");
+        labels
     }
 
     /// A mesh from its OBJ file or from the arrays written inline.
