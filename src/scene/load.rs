@@ -430,8 +430,8 @@ impl Ctx<'_> {
                 }
                 vertices.push(Vec3::from_array(*v));
             }
-            let shape = Polygon::new(vertices).map_err(|e| self.err(&p.vertices, "vertices", e.to_string()))?;
-            place(&mut scene, shape.into(), &p.material, &p.transform)?;
+            let shape = self.polygon(&p.vertices, vertices)?;
+            place(&mut scene, shape, &p.material, &p.transform)?;
         }
         for c in &desc.cylinder {
             let c = c.get_ref();
@@ -525,6 +525,42 @@ impl Ctx<'_> {
         each!(desc.triangle, "triangle");
         each!(desc.mesh, "mesh");
         labels
+    }
+
+    /// A convex polygon as it is; a concave one ear-clipped into a flat mesh, as NFF
+    /// polygons are; one whose outline crosses itself refused, naming the edges.
+    fn polygon(&self, at: &S<Vec<V3>>, vertices: Vec<Vec3>) -> R<Shape> {
+        use crate::geometry::PolygonError;
+        use crate::geometry::triangulate::{MAX_EAR_CLIPPING, first_crossing, triangulate};
+        match Polygon::new(vertices.clone()) {
+            Ok(p) => Ok(p.into()),
+            Err(PolygonError::NotConvex { .. }) => {
+                let n = vertices.len();
+                if n > MAX_EAR_CLIPPING {
+                    let message = format!(
+                        "a concave polygon may have at most {MAX_EAR_CLIPPING} vertices (got {n}); use a [[mesh]]"
+                    );
+                    return Err(self.err(at, "vertices", message));
+                }
+                if let Some((i, j)) = first_crossing(&vertices) {
+                    let message = format!(
+                        "the outline crosses itself: the edge from vertex {j} to {} crosses the edge from \
+                         vertex {i} to {} (counted from 0)",
+                        (j + 1) % n,
+                        i + 1
+                    );
+                    return Err(self.err(at, "vertices", message));
+                }
+                let mut triangles = Vec::new();
+                if triangulate(&vertices, 0, &mut triangles).is_none() || triangles.is_empty() {
+                    return Err(self.err(at, "vertices", "the polygon has no area"));
+                }
+                let mesh = Mesh::new(vertices, vec![], vec![], triangles, false)
+                    .map_err(|e| self.err(at, "vertices", e.to_string()))?;
+                Ok(mesh.into())
+            }
+            Err(e) => Err(self.err(at, "vertices", e.to_string())),
+        }
     }
 
     /// A mesh from its OBJ file or from the arrays written inline.
