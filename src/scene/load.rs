@@ -34,8 +34,10 @@ const MAX_SAMPLES: i64 = 65536;
 /// Reads and checks a scene file. Relative texture paths are relative to the file.
 pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
     let name = path.display().to_string();
-    let src = std::fs::read_to_string(path)
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut super::limits::open_regular(path, "scene")?, &mut bytes)
         .map_err(|e| SceneError::File { file: name.clone(), message: format!("cannot read the scene: {e}") })?;
+    let src = super::limits::utf8(bytes, &name)?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_str(&src, &name, base)
 }
@@ -833,6 +835,15 @@ impl Ctx<'_> {
                                 "resolution",
                                 format!("sides must be between 1 and {MAX_RESOLUTION}"),
                             ));
+                        }
+                        let need = (w * h) as u64 * crate::texture::TEXEL_BYTES;
+                        if need > crate::texture::MAX_TEXTURE_BYTES {
+                            let message = format!(
+                                "a {w}x{h} map needs about {:.1} GiB; the limit is {:.2} GiB (8192x8192)",
+                                need as f64 / (1u64 << 30) as f64,
+                                crate::texture::MAX_TEXTURE_BYTES as f64 / (1u64 << 30) as f64
+                            );
+                            return Err(self.err(r, "resolution", message));
                         }
                         [w as u32, h as u32]
                     }

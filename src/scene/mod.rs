@@ -13,6 +13,7 @@
 
 mod error;
 pub mod generate;
+pub mod limits;
 mod load;
 pub mod nff;
 pub mod obj;

@@ -43,22 +43,50 @@ impl ImageMap {
             std::io::ErrorKind::NotFound => TextureError::NotFound(e),
             _ => TextureError::Unreadable(e),
         })?;
-        let mut reader = ImageReader::new(Cursor::new(bytes));
-        // The content decides and the name is only the fallback: a JPEG named .png still
-        // loads, and garbage named .png is reported as a corrupt PNG, not as unsupported.
-        if let Ok(format) = ImageFormat::from_path(path) {
-            reader.set_format(format);
+        let reader_for = |bytes: &[u8]| -> Result<ImageReader<Cursor<Vec<u8>>>, TextureError> {
+            let mut reader = ImageReader::new(Cursor::new(bytes.to_vec()));
+            // The content decides and the name is only the fallback: a JPEG named .png
+            // still loads, and garbage named .png is reported as a corrupt PNG.
+            if let Ok(format) = ImageFormat::from_path(path) {
+                reader.set_format(format);
+            }
+            reader.with_guessed_format().map_err(TextureError::Unreadable)
+        };
+        // The size first, from the header: a small file can claim a huge image.
+        let (width, height) = reader_for(&bytes)?.into_dimensions().map_err(|e| match e {
+            ImageError::Unsupported(_) => TextureError::Unsupported(e),
+            _ => TextureError::Corrupt(e),
+        })?;
+        let need = width as u64 * height as u64 * super::TEXEL_BYTES;
+        if need > super::MAX_TEXTURE_BYTES {
+            return Err(TextureError::TooLarge { width, height, bytes: need });
         }
-        let reader = reader.with_guessed_format().map_err(TextureError::Unreadable)?;
+        let mut reader = reader_for(&bytes)?;
+        drop(bytes);
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(super::MAX_TEXTURE_BYTES);
+        reader.limits(limits);
         let image = reader.decode().map_err(|e| match e {
             ImageError::Unsupported(_) => TextureError::Unsupported(e),
+            ImageError::Limits(_) => TextureError::TooLarge { width, height, bytes: need },
             _ => TextureError::Corrupt(e),
         })?;
         let (width, height) = (image.width(), image.height());
         if width == 0 || height == 0 {
             return Err(TextureError::Empty { width, height });
         }
-        let texels = image.to_rgb32f().pixels().map(|p| Vec3::from(p.0)).collect();
+        // Texel by texel from the decoded image: no second full-size copy.
+        let texels = match &image {
+            image::DynamicImage::ImageLuma8(b) => b.pixels().map(|p| Vec3::splat(p.0[0] as f32 / 255.0)).collect(),
+            image::DynamicImage::ImageLumaA8(b) => b.pixels().map(|p| Vec3::splat(p.0[0] as f32 / 255.0)).collect(),
+            image::DynamicImage::ImageRgb8(b) => {
+                b.pixels().map(|p| Vec3::from(p.0.map(|c| c as f32 / 255.0))).collect()
+            }
+            image::DynamicImage::ImageRgba8(b) => {
+                b.pixels().map(|p| Vec3::new(p.0[0] as f32, p.0[1] as f32, p.0[2] as f32) / 255.0).collect()
+            }
+            other => other.to_rgb32f().pixels().map(|p| Vec3::from(p.0)).collect(),
+        };
         Ok(Self::from_texels(width, height, texels))
     }
 
