@@ -1,6 +1,6 @@
 //! NFF, the Neutral File Format of Eric Haines' Standard Procedural Databases (SPD):
 //! sphereflake (balls), gears, mount, rings, teapot, tetra, tree. The format is
-//! described in `../shared/docs/nff.md`; this is what each entity becomes here.
+//! described in Eric Haines' SPD documentation (`nff.doc`); this is what each entity becomes here.
 //!
 //! Reading: whitespace-separated tokens, which may run over several lines (the spec's
 //! `c` takes 3 lines, SPD writes it on one), `#` to the end of a line is a comment. The
