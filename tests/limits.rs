@@ -75,3 +75,41 @@ fn huge_textures_and_maps_are_refused_up_front() {
     let planet = "[material.p]\ntexture = { kind = \"planet\", resolution = [16384, 16384] }\n";
     fails_with(&format!("{HEAD}{planet}"), "planet.toml", &["planet.toml:8:", "resolution", "16384x16384"]);
 }
+
+#[test]
+fn nesting_too_deep_is_located() {
+    let keys: Vec<String> = (0..100).map(|i| format!("k{i}")).collect();
+    fails_with(&format!("{HEAD}\n\na.{} = 1\n", keys.join(".")), "dotted.toml", &["dotted.toml:9:", "recursion"]);
+    let deep = format!("x = {}1{}\n", "[".repeat(200), "]".repeat(200));
+    fails_with(&format!("{HEAD}{deep}"), "deep.toml", &["deep.toml:7:"]);
+}
+
+#[test]
+fn a_polygon_of_a_million_vertices_is_rendered_or_reported_never_dropped() {
+    let view = "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 1\nresolution 8 8\nl 0 0 5\nf 1 0 0 1 0 0 0 0\n";
+    let circle = |n: usize| {
+        let mut s = format!("{view}p {n}\n");
+        for i in 0..n {
+            let a = i as f64 / n as f64 * std::f64::consts::TAU;
+            s.push_str(&format!("{:.7} {:.7} 0\n", a.cos(), a.sin()));
+        }
+        s
+    };
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("c.nff");
+    std::fs::write(&scene, circle(1_000_000)).unwrap();
+    let out =
+        whitted(&["render", scene.to_str().unwrap(), "--stats", "-o", tmp.path().join("c.png").to_str().unwrap()]);
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    let triangles: usize = stdout
+        .split(" triangles")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{stdout}"));
+    // Its fan is a million slivers, each tiny beside the whole polygon: they are kept
+    // (up to those within rounding of v0's tangent), not dropped as zero-area.
+    assert!(triangles > 800_000, "slivers dropped: {stdout} {stderr}");
+    fails_with(&circle(1_000_001), "big.nff", &["big.nff:10:", "at most 1000000 (got 1000001)"]);
+}

@@ -82,8 +82,14 @@ pub fn triangulate(points: &[Vec3], base: u32, out: &mut Vec<[u32; 3]>) -> Optio
     let cross =
         |a: usize, b: usize, c: usize| (q[b].0 - q[a].0) * (q[c].1 - q[b].1) - (q[b].1 - q[a].1) * (q[c].0 - q[b].0);
     let convex = (0..n).all(|i| cross(i, (i + 1) % n, (i + 2) % n) >= -eps);
+    // A triangle is dropped as straight when its area is within rounding of zero for
+    // its own edges, not the polygon's size: a polygon of a million vertices is all
+    // slivers that are each tiny beside the whole, and must still be covered.
+    let len = |a: usize, b: usize| ((q[b].0 - q[a].0).powi(2) + (q[b].1 - q[a].1).powi(2)).sqrt();
     let push = |out: &mut Vec<[u32; 3]>, a: usize, b: usize, c: usize| {
-        if cross(a, b, c) > eps {
+        let (ab, bc) = (len(a, b), len(b, c));
+        let tri_eps = 1e-6 * ab * bc + 1e-6 * magnitude * (ab + bc);
+        if cross(a, b, c) > tri_eps.min(eps) {
             out.push([base + a as u32, base + b as u32, base + c as u32]);
         }
     };

@@ -289,7 +289,9 @@ impl Ctx<'_> {
     /// key the error's position is the value of.
     fn toml_error(&self, e: &toml::de::Error) -> SceneError {
         let message = e.message().trim().to_owned();
-        let offset = e.span().map_or(0, |s| s.start);
+        // The parser's nesting limit comes without a position: point at the first line
+        // nested that deep (dotted keys, arrays or inline tables).
+        let offset = e.span().map(|s| s.start).or_else(|| self.deeply_nested_line()).unwrap_or(0);
         let field = message
             .split('`')
             .nth(1)
@@ -298,6 +300,31 @@ impl Ctx<'_> {
             .or_else(|| self.key_before(offset))
             .unwrap_or_else(|| "syntax".to_owned());
         self.error_at(offset, &field, message)
+    }
+
+    /// The start of the first line with 50 or more levels of dotted key, `[` or `{`.
+    fn deeply_nested_line(&self) -> Option<usize> {
+        let mut start = 0;
+        for line in self.src.split_inclusive('\n') {
+            let (mut depth, mut deepest, mut dots) = (0i32, 0i32, 0);
+            for c in line.chars() {
+                match c {
+                    '[' | '{' => {
+                        depth += 1;
+                        deepest = deepest.max(depth);
+                    }
+                    ']' | '}' => depth -= 1,
+                    '.' => dots += 1,
+                    '#' => break,
+                    _ => {}
+                }
+            }
+            if deepest >= 50 || dots >= 50 {
+                return Some(start);
+            }
+            start += line.len();
+        }
+        None
     }
 
     /// The key whose value starts at `offset` (`radius` in `radius = "five"`).

@@ -727,6 +727,12 @@ impl<'a, R: BufRead> Parser<'a, R> {
             Some(Split::FanFallback) => self.crossing.add(e.line),
             Some(_) => {}
         }
+        // Every triangle below the area tolerance (a polygon of very many vertices,
+        // each sliver too thin): say so rather than dropping it silently.
+        if mesh.triangles.len() == before {
+            self.zero_area.add(e.line);
+            return Ok(());
+        }
         mesh.positions.extend_from_slice(&self.points);
         mesh.normals.extend_from_slice(&self.normals);
         self.counts.triangles += mesh.triangles.len() - before;
