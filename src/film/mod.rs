@@ -135,11 +135,11 @@ pub fn check_target(path: &Path) -> std::io::Result<()> {
             format!("this is a folder; give a file name, such as {}", example.display()),
         ));
     }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        if !dir.is_dir() {
-            let what = if dir.exists() { "is not a folder" } else { "does not exist" };
-            return Err(Error::new(ErrorKind::NotFound, format!("the folder {} {what}", dir.display())));
-        }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        let what = if dir.exists() { "is not a folder" } else { "does not exist" };
+        return Err(Error::new(ErrorKind::NotFound, format!("the folder {} {what}", dir.display())));
     }
     Ok(())
 }
