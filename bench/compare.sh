@@ -3,14 +3,21 @@
 # displaced cube-sphere and a cloud of 10^6 spheres, same rays) alternately on this
 # machine, with the sphereflake against POV-Ray too, prints the ratios that issues 7 and 21 track, and appends the figures as JSON lines
 # to bench/results/DATE.jsonl. Installs povray and libembree-dev from Debian if missing.
-# Usage: [ROUNDS=3] [ROOM_ROUNDS=3] bench/compare.sh [THREADS] [--big]   (default 2
+# Usage: WHITTED_TOOLS=DIR [ROUNDS=3] [ROOM_ROUNDS=3] bench/compare.sh [THREADS] [--big]
+# WHITTED_TOOLS is the folder holding the comparison harnesses (embree-bench/build.sh,
+# povray-room/run.sh), which are not part of this repository (docs/performance.md).   (default 2
 # threads, about six minutes; --big adds the 10M-triangle cube-sphere to each round,
 # about three minutes more)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 threads=2; big=0
 for a in "$@"; do case "$a" in --big) big=1 ;; *) threads="$a" ;; esac; done
-tools=../shared/tools
+tools="${WHITTED_TOOLS:-}"
+if [ -z "$tools" ] || [ ! -f "$tools/embree-bench/build.sh" ] || [ ! -f "$tools/povray-room/run.sh" ]; then
+    echo "bench/compare.sh: set WHITTED_TOOLS to the folder holding embree-bench/build.sh and" >&2
+    echo "povray-room/run.sh (the comparison harnesses; see docs/performance.md)" >&2
+    exit 2
+fi
 cpu="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')"
 date="$(date -u +%Y-%m-%dT%H:%M:%SZ)"
 out="bench/results/$(date -u +%Y-%m-%d).jsonl"

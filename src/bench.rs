@@ -1,5 +1,5 @@
 //! `whitted bench`: ray rates, build time and memory on built-in scenes and on meshes,
-//! measured on the same ray sets as `../shared/tools/embree-bench` so the two compare ray
+//! measured on the same ray sets as the Embree comparison harness (`$WHITTED_TOOLS/embree-bench`, docs/performance.md) so the two compare ray
 //! for ray:
 //! - primary: one ray through each pixel centre of a camera; for meshes (and the other
 //!   generated scenes) a 1024² pinhole at c + normalize(0.3, 0.35, 1)·R / sin 20°
@@ -366,7 +366,7 @@ fn timed(runs: usize, mut f: impl FnMut()) -> Timing {
     Timing { wall: median(wall), cpu: median(cpu) }
 }
 
-/// Ray cases, measured as `../shared/tools/embree-bench` measures its own: one warm-up
+/// Ray cases, measured as the Embree comparison harness (`$WHITTED_TOOLS/embree-bench`, docs/performance.md) measures its own: one warm-up
 /// run, then `runs` timed runs; CPU is the worker threads' CPU time spent tracing (summed
 /// over chunks by `f`, which returns it), the smallest of the runs, so idle workers
 /// waiting for work and other programs on the machine do not count.

@@ -12,6 +12,7 @@
 pub mod accel;
 pub mod bench;
 pub mod camera;
+pub mod cleanup;
 pub mod film;
 pub mod geometry;
 pub mod integrator;

@@ -73,6 +73,7 @@ impl PendingOutput {
 
     /// [`PendingOutput::create`] with the colour encoding and bits per channel chosen.
     pub fn create_with(path: &Path, options: OutputOptions) -> Result<Self, OutputError> {
+        check_target(path).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
         let encoding = Encoding::for_path(path, options)?;
         let temp = temp_file_beside(path).map_err(|source| OutputError::Io { path: path.to_owned(), source })?;
         Ok(PendingOutput { path: path.to_owned(), encoding, temp })
@@ -94,7 +95,10 @@ impl PendingOutput {
             w.flush().map_err(io_err)?;
         }
         self.temp.as_file().sync_all().map_err(io_err)?;
-        self.temp.persist(&path).map_err(|e| io_err(e.error))?;
+        let temp_path = self.temp.path().to_owned();
+        let result = self.temp.persist(&path);
+        crate::cleanup::forget(&temp_path);
+        result.map_err(|e| io_err(e.error))?;
         Ok(())
     }
 }
@@ -104,6 +108,7 @@ impl PendingOutput {
 /// (what the umask allows), not the owner-only mode temporary files get by default,
 /// since it becomes the user's output.
 pub fn temp_file_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile> {
+    check_target(path)?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -112,7 +117,32 @@ pub fn temp_file_beside(path: &Path) -> std::io::Result<tempfile::NamedTempFile>
     builder.prefix(".whitted-").suffix(".tmp");
     #[cfg(unix)]
     builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
-    builder.tempfile_in(dir)
+    // The temporary name means nothing to the user: errors keep only their kind.
+    let temp = builder.tempfile_in(dir).map_err(|e| std::io::Error::from(e.kind()))?;
+    // Listed so that an interrupted run removes it (see `crate::cleanup`).
+    crate::cleanup::register(temp.path());
+    Ok(temp)
+}
+
+/// Whether `path` can be an output file, in terms of that path: not a folder, and in a
+/// folder that exists.
+pub fn check_target(path: &Path) -> std::io::Result<()> {
+    use std::io::{Error, ErrorKind};
+    let text = path.as_os_str().to_string_lossy();
+    if path.is_dir() || text.ends_with('/') || text.ends_with(std::path::MAIN_SEPARATOR) {
+        let example = path.join("room.png");
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!("this is a folder; give a file name, such as {}", example.display()),
+        ));
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty())
+        && !dir.is_dir()
+    {
+        let what = if dir.exists() { "is not a folder" } else { "does not exist" };
+        return Err(Error::new(ErrorKind::NotFound, format!("the folder {} {what}", dir.display())));
+    }
+    Ok(())
 }
 
 /// Writes `image` to `path` atomically, in the format its extension names (default

@@ -82,8 +82,14 @@ pub fn triangulate(points: &[Vec3], base: u32, out: &mut Vec<[u32; 3]>) -> Optio
     let cross =
         |a: usize, b: usize, c: usize| (q[b].0 - q[a].0) * (q[c].1 - q[b].1) - (q[b].1 - q[a].1) * (q[c].0 - q[b].0);
     let convex = (0..n).all(|i| cross(i, (i + 1) % n, (i + 2) % n) >= -eps);
+    // A triangle is dropped as straight when its area is within rounding of zero for
+    // its own edges, not the polygon's size: a polygon of a million vertices is all
+    // slivers that are each tiny beside the whole, and must still be covered.
+    let len = |a: usize, b: usize| ((q[b].0 - q[a].0).powi(2) + (q[b].1 - q[a].1).powi(2)).sqrt();
     let push = |out: &mut Vec<[u32; 3]>, a: usize, b: usize, c: usize| {
-        if cross(a, b, c) > eps {
+        let (ab, bc) = (len(a, b), len(b, c));
+        let tri_eps = 1e-6 * ab * bc + 1e-6 * magnitude * (ab + bc);
+        if cross(a, b, c) > tri_eps.min(eps) {
             out.push([base + a as u32, base + b as u32, base + c as u32]);
         }
     };
@@ -148,6 +154,47 @@ pub fn triangulate(points: &[Vec3], base: u32, out: &mut Vec<[u32; 3]>) -> Optio
     }
     push(out, prev[i], i, next[i]);
     Some(Split::Ears)
+}
+
+/// The first pair of edges that cross, as `(i, j)` with `i < j`: the edge from vertex
+/// `j` to the next crosses the edge from vertex `i` to the next (counted from 0). Ear
+/// clipping needs an outline that does not cross itself; readers that can refuse such a
+/// polygon (TOML) use this to say where it crosses. O(n²): call it on polygons of at
+/// most [`MAX_EAR_CLIPPING`] vertices.
+pub fn first_crossing(points: &[Vec3]) -> Option<(usize, usize)> {
+    let n = points.len();
+    if n < 4 {
+        return None;
+    }
+    let p: Vec<[f64; 3]> = points.iter().map(|v| [v.x as f64, v.y as f64, v.z as f64]).collect();
+    let mut normal = [0.0f64; 3];
+    for i in 0..n {
+        let (a, b) = (p[i], p[(i + 1) % n]);
+        normal[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        normal[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        normal[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    let k = (0..3).max_by(|&a, &b| normal[a].abs().total_cmp(&normal[b].abs())).unwrap_or(2);
+    let (u, v) = ((k + 1) % 3, (k + 2) % 3);
+    let q: Vec<(f64, f64)> = p.iter().map(|x| (x[u], x[v])).collect();
+    let side = |a: (f64, f64), b: (f64, f64), c: (f64, f64)| (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0);
+    // Proper crossings only: edges that merely touch at a point are left to the clipper.
+    let crosses = |a: (f64, f64), b: (f64, f64), c: (f64, f64), d: (f64, f64)| {
+        let (d1, d2) = (side(a, b, c), side(a, b, d));
+        let (d3, d4) = (side(c, d, a), side(c, d, b));
+        d1 * d2 < 0.0 && d3 * d4 < 0.0
+    };
+    for j in 2..n {
+        for i in 0..j - 1 {
+            if i == 0 && j == n - 1 {
+                continue; // neighbours through vertex 0
+            }
+            if crosses(q[i], q[i + 1], q[j], q[(j + 1) % n]) {
+                return Some((i, j));
+            }
+        }
+    }
+    None
 }
 
 #[cfg(test)]
@@ -271,5 +318,15 @@ mod tests {
         let pts = xy(&[(0.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0), (-1.0, 1.0)]);
         let mut out = Vec::new();
         assert!(triangulate(&pts, 0, &mut out).is_some());
+    }
+
+    #[test]
+    fn crossing_outlines_are_found() {
+        let v = |x: f32, y: f32| Vec3::new(x, y, 0.0);
+        // A bow tie: edge 2 (from vertex 2) crosses edge 0.
+        assert_eq!(first_crossing(&[v(0.0, 0.0), v(1.0, 1.0), v(1.0, 0.0), v(0.0, 1.0)]), Some((0, 2)));
+        // An L shape is concave but simple.
+        let l = [v(0.0, 0.0), v(2.0, 0.0), v(2.0, 1.0), v(1.0, 1.0), v(1.0, 2.0), v(0.0, 2.0)];
+        assert_eq!(first_crossing(&l), None);
     }
 }

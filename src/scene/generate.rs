@@ -4,7 +4,7 @@ use crate::geometry::Mesh;
 use crate::math::Vec3;
 
 /// Radius of the displaced sphere at unit direction (x, y, z): a few octaves of products
-/// of sines. The same formula as `../shared/tools/embree-bench` (`--gen-cubesphere`), so
+/// of sines. The same formula as the Embree comparison harness (`$WHITTED_TOOLS/embree-bench`, docs/performance.md) (`--gen-cubesphere`), so
 /// both tracers see the same mesh.
 fn displacement(x: f64, y: f64, z: f64) -> f64 {
     let (mut r, mut amp, mut f) = (1.0, 0.08, 3.0);

@@ -506,7 +506,7 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
         };
         // Colour textures are sRGB-encoded (glTF 2.0, 3.9.2).
         let map =
-            ImageMap::decode(bytes, hint, ColorEncoding::Srgb).map_err(|e| (self.fail)(format!("{part}: {e}")))?;
+            ImageMap::decode(&bytes, hint, ColorEncoding::Srgb).map_err(|e| (self.fail)(format!("{part}: {e}")))?;
         let map = Arc::new(map);
         self.images.insert(image.index(), map.clone());
         Ok(map)

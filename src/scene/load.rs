@@ -16,13 +16,14 @@ use crate::material::Material;
 use crate::math::{Color, Vec2, Vec3};
 use crate::texture::{ImageMap, Texture, planet};
 use serde::Deserialize;
-use std::collections::{BTreeMap, HashMap};
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use toml::Spanned;
 
 mod light;
 use light::LightDesc;
+mod extra;
 
 /// The built-in default scene: the seed room. The file in the repository is compiled in,
 /// so the two cannot drift apart.
@@ -42,8 +43,10 @@ pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
 /// [`load_file`], with the warnings of the files it places (`[[gltf]]` assets).
 pub(super) fn load_file_with_warnings(path: &Path) -> Result<(Scene, Vec<String>), SceneError> {
     let name = path.display().to_string();
-    let src = std::fs::read_to_string(path)
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut super::limits::open_regular(path, "scene")?, &mut bytes)
         .map_err(|e| SceneError::File { file: name.clone(), message: format!("cannot read the scene: {e}") })?;
+    let src = super::limits::utf8(bytes, &name)?;
     let base = path.parent().unwrap_or(Path::new("."));
     load_str_with_warnings(&src, &name, base)
 }
@@ -71,8 +74,9 @@ struct FileDesc {
     settings: Option<S<SettingsDesc>>,
     #[serde(default)]
     light: Vec<S<LightDesc>>,
+    /// In file order, so that materials keep their order through `convert`.
     #[serde(default)]
-    material: BTreeMap<String, S<MaterialDesc>>,
+    material: indexmap::IndexMap<String, S<MaterialDesc>>,
     #[serde(default)]
     sphere: Vec<S<SphereDesc>>,
     #[serde(default)]
@@ -310,7 +314,9 @@ impl Ctx<'_> {
     /// key the error's position is the value of.
     fn toml_error(&self, e: &toml::de::Error) -> SceneError {
         let message = e.message().trim().to_owned();
-        let offset = e.span().map_or(0, |s| s.start);
+        // The parser's nesting limit comes without a position: point at the first line
+        // nested that deep (dotted keys, arrays or inline tables).
+        let offset = e.span().map(|s| s.start).or_else(|| self.deeply_nested_line()).unwrap_or(0);
         let field = message
             .split('`')
             .nth(1)
@@ -449,8 +455,8 @@ impl Ctx<'_> {
                 }
                 vertices.push(Vec3::from_array(*v));
             }
-            let shape = Polygon::new(vertices).map_err(|e| self.err(&p.vertices, "vertices", e.to_string()))?;
-            place(&mut scene, shape.into(), &p.material, &p.transform)?;
+            let shape = self.polygon(&p.vertices, vertices)?;
+            place(&mut scene, shape, &p.material, &p.transform)?;
         }
         for c in &desc.cylinder {
             let c = c.get_ref();
@@ -511,6 +517,7 @@ impl Ctx<'_> {
                 .map_err(|e| self.err(&g.file, "file", e.to_string()))?;
             self.warnings.borrow_mut().extend(asset.warnings);
         }
+        scene.labels = self.labels(&desc);
         Ok(scene)
     }
 
@@ -807,6 +814,15 @@ impl Ctx<'_> {
                                 "resolution",
                                 format!("sides must be between 1 and {MAX_RESOLUTION}"),
                             ));
+                        }
+                        let need = (w * h) as u64 * crate::texture::TEXEL_BYTES;
+                        if need > crate::texture::MAX_TEXTURE_BYTES {
+                            let message = format!(
+                                "a {w}x{h} map needs about {:.1} GiB; the limit is {:.2} GiB (8192x8192)",
+                                need as f64 / (1u64 << 30) as f64,
+                                crate::texture::MAX_TEXTURE_BYTES as f64 / (1u64 << 30) as f64
+                            );
+                            return Err(self.err(r, "resolution", message));
                         }
                         [w as u32, h as u32]
                     }

@@ -15,6 +15,7 @@ mod error;
 pub mod frame;
 pub mod generate;
 pub mod gltf;
+pub mod limits;
 mod load;
 pub mod nff;
 pub mod obj;
@@ -142,12 +143,82 @@ pub struct Scene {
     pub lights: Vec<Light>,
     pub materials: Vec<Material>,
     pub objects: Vec<Object>,
+    /// What the scene file called its materials and objects, for messages; empty for
+    /// scenes built in code.
+    pub labels: Labels,
+}
+
+/// Names and places from the scene file, so that messages about a material or an object
+/// use the file's words (`material "planet" (line 31)`, `[[sphere]] 6 (line 80)`)
+/// rather than internal indices.
+#[derive(Clone, Debug, Default)]
+pub struct Labels {
+    /// By material index.
+    pub materials: Vec<MaterialLabel>,
+    /// By object index.
+    pub objects: Vec<ObjectLabel>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialLabel {
+    /// `planet` for `[material.planet]`; `None` for one written inline in an object.
+    pub name: Option<String>,
+    /// The object table an inline material belongs to (`[[sphere]] 2`).
+    pub owner: Option<String>,
+    /// Where it starts, from 1.
+    pub line: usize,
+    /// The texture `kind` as written (`planet`, `image`...), if any.
+    pub texture: Option<String>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ObjectLabel {
+    /// The table: `sphere`, `quad`...
+    pub table: &'static str,
+    /// Which `[[table]]` of that kind, counted from 1 in file order.
+    pub index: usize,
+    pub line: usize,
+}
+
+impl std::fmt::Display for ObjectLabel {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        write!(f, "[[{}]] {} (line {})", self.table, self.index, self.line)
+    }
+}
+
+impl std::fmt::Display for MaterialLabel {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        match (&self.name, &self.owner) {
+            (Some(n), _) => write!(f, "material {n:?} (line {})", self.line),
+            (None, Some(o)) => write!(f, "the material of {o} (line {})", self.line),
+            (None, None) => write!(f, "the material on line {}", self.line),
+        }
+    }
+}
+
+impl Scene {
+    /// A material as the user knows it: its label from the file, else its index.
+    pub fn material_label(&self, i: usize) -> String {
+        self.labels.materials.get(i).map_or_else(|| format!("material {i}"), |l| l.to_string())
+    }
+
+    /// An object as the user knows it: its table, index and line, else its index.
+    pub fn object_label(&self, i: usize) -> String {
+        self.labels.objects.get(i).map_or_else(|| format!("object {i}"), |l| l.to_string())
+    }
 }
 
 impl Scene {
     /// An empty scene with default settings.
     pub fn new(camera: Camera) -> Self {
-        Scene { camera, settings: Settings::default(), lights: Vec::new(), materials: Vec::new(), objects: Vec::new() }
+        Scene {
+            camera,
+            settings: Settings::default(),
+            lights: Vec::new(),
+            materials: Vec::new(),
+            objects: Vec::new(),
+            labels: Labels::default(),
+        }
     }
 
     pub fn add_material(&mut self, material: Material) -> MaterialId {

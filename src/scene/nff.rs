@@ -1,6 +1,6 @@
 //! NFF, the Neutral File Format of Eric Haines' Standard Procedural Databases (SPD):
 //! sphereflake (balls), gears, mount, rings, teapot, tetra, tree. The format is
-//! described in `../shared/docs/nff.md`; this is what each entity becomes here.
+//! described in Eric Haines' SPD documentation (`nff.doc`); this is what each entity becomes here.
 //!
 //! Reading: whitespace-separated tokens, which may run over several lines (the spec's
 //! `c` takes 3 lines, SPD writes it on one), `#` to the end of a line is a comment. The
@@ -73,11 +73,13 @@ pub struct Counts {
     pub triangles: usize,
 }
 
+/// Most vertices one `p` polygon or `pp` patch may have.
+pub const MAX_POLYGON_VERTICES: u64 = 1_000_000;
+
 /// Reads an NFF file.
 pub fn load_nff(path: &Path) -> Result<Nff, SceneError> {
     let name = path.display().to_string();
-    let file = std::fs::File::open(path)
-        .map_err(|e| SceneError::File { file: name.clone(), message: format!("cannot read the scene: {e}") })?;
+    let file = super::limits::open_regular(path, "scene")?;
     read_nff(std::io::BufReader::with_capacity(1 << 16, file), &name)
 }
 
@@ -216,10 +218,7 @@ impl<R: BufRead> Lexer<R> {
                 return Ok(Some(Tok { start, end, line: self.line }));
             }
             self.buf.clear();
-            let read = self.input.read_until(b'\n', &mut self.buf).map_err(|e| SceneError::File {
-                file: name.to_owned(),
-                message: format!("cannot read line {}: {e}", self.line + 1),
-            })?;
+            let read = super::limits::read_line(&mut self.input, &mut self.buf, name, self.line + 1)?;
             if read == 0 {
                 return Ok(None);
             }
@@ -457,7 +456,11 @@ impl<'a, R: BufRead> Parser<'a, R> {
                 self.lex.bump(tok);
                 Ok(n)
             }
-            Ok(n) => Err(err(format!("{what} must be {range} (got {n})"))),
+            Ok(n) if n < lo => Err(err(format!("{what} must be at least {lo} (got {n})"))),
+            Ok(n) => Err(err(format!("{what} must be at most {hi} (got {n})"))),
+            Err(_) if !text.is_empty() && text.bytes().all(|b| b.is_ascii_digit()) => {
+                Err(err(format!("{what} must be at most {hi} (got {})", show(word))))
+            }
             Err(_) if is_keyword(word) => Err(self.short(e, what, 0, Some(tok))),
             Err(_) if parse_f32(word).is_some() => {
                 Err(err(format!("{what} must be a whole number {range} (got {})", show(word))))
@@ -683,7 +686,9 @@ impl<'a, R: BufRead> Parser<'a, R> {
 
     fn polygon(&mut self, e: &Entity) -> Res<()> {
         let smooth = e.cmd == Cmd::Patch;
-        let n = self.count(e, "the vertex count", 3, u32::MAX as u64)? as usize;
+        // Past a million vertices a polygon is refused up front rather than half-read:
+        // faces that large belong in an OBJ mesh.
+        let n = self.count(e, "the vertex count", 3, MAX_POLYGON_VERTICES)? as usize;
         let per = if smooth { 6 } else { 3 };
         let want = if smooth {
             format!("{n} vertices of 6 numbers (x y z nx ny nz): {} numbers", 6 * n)
@@ -722,6 +727,12 @@ impl<'a, R: BufRead> Parser<'a, R> {
             }
             Some(Split::FanFallback) => self.crossing.add(e.line),
             Some(_) => {}
+        }
+        // Every triangle below the area tolerance (a polygon of very many vertices,
+        // each sliver too thin): say so rather than dropping it silently.
+        if mesh.triangles.len() == before {
+            self.zero_area.add(e.line);
+            return Ok(());
         }
         mesh.positions.extend_from_slice(&self.points);
         mesh.normals.extend_from_slice(&self.normals);

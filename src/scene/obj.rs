@@ -53,10 +53,7 @@ const SKIPPED: &[&str] = &[
 
 /// Loads an OBJ file into a mesh; `smooth` as in [`Mesh::new`].
 pub fn load_obj(path: &Path, smooth: bool) -> Result<Mesh, SceneError> {
-    let file = std::fs::File::open(path).map_err(|e| SceneError::File {
-        file: path.display().to_string(),
-        message: format!("cannot read the mesh: {e}"),
-    })?;
+    let file = super::limits::open_regular(path, "mesh")?;
     read_obj(std::io::BufReader::new(file), &path.display().to_string(), smooth)
 }
 
@@ -74,6 +71,7 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
     let mut uses_attributes = false;
     let mut face: Vec<u32> = Vec::with_capacity(8);
     let mut line = String::new();
+    let mut raw = Vec::new();
     let mut number = 0;
     let err = |number: usize, column: usize, field: &str, message: String| SceneError::At {
         file: name.to_owned(),
@@ -85,13 +83,15 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
     loop {
         line.clear();
         number += 1;
-        let read = input.read_line(&mut line).map_err(|e| SceneError::File {
-            file: name.to_owned(),
-            message: format!("cannot read line {number}: {e}"),
-        })?;
+        raw.clear();
+        let read = super::limits::read_line(&mut input, &mut raw, name, number)?;
         if read == 0 {
             break;
         }
+        line = match std::str::from_utf8(&raw) {
+            Ok(text) => text.to_owned(),
+            Err(e) => return Err(err(number, e.valid_up_to() + 1, "text", "not UTF-8 text (binary data?)".into())),
+        };
         let text = line.split('#').next().unwrap_or("");
         let mut words = text.split_whitespace();
         let Some(keyword) = words.next() else { continue };
@@ -99,8 +99,9 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
         let floats = |words: std::str::SplitWhitespace, min: usize, max: usize| -> Result<Vec<f32>, SceneError> {
             let mut v = Vec::with_capacity(max);
             for w in words {
-                let x: f32 =
-                    w.parse().map_err(|_| err(number, column_of(w), keyword, format!("{w:?} is not a number")))?;
+                let x: f32 = w.parse().map_err(|_| {
+                    err(number, column_of(w), keyword, format!("{:?} is not a number", super::limits::show(w)))
+                })?;
                 if !x.is_finite() {
                     return Err(err(number, column_of(w), keyword, format!("{w} is not a finite number")));
                 }
@@ -187,8 +188,8 @@ pub fn read_obj(mut input: impl BufRead, name: &str, smooth: bool) -> Result<Mes
             }
             k if SKIPPED.contains(&k) => {}
             other => {
-                let shown: String = other.chars().take(20).collect();
-                return Err(err(number, column_of(other), other, format!("unknown OBJ statement {shown:?}")));
+                let shown = super::limits::show(other);
+                return Err(err(number, column_of(other), &shown, format!("unknown OBJ statement {shown:?}")));
             }
         }
     }

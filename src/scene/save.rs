@@ -6,8 +6,8 @@
 //! bits. Objects are written grouped by kind, in the order the loader reads the kinds
 //! (spheres, quads, polygons, cylinders, cones, triangles, meshes), so a scene whose
 //! objects are already in that order (as every loaded scene's are) keeps its order
-//! too. Materials are named `m0`, `m1`... (zero-padded, so they sort in order), and
-//! meshes are written inline. Shapes placed with a general transform, image and planet
+//! too. Materials keep the names the file gave them (others are named `m0`, `m1`...),
+//! and meshes are written inline. Shapes placed with a general transform, image and planet
 //! textures, and mesh texture coordinates have no TOML form that reproduces them, and
 //! are refused.
 
@@ -23,7 +23,7 @@ use std::path::Path;
 /// Why a scene could not be written.
 #[derive(Debug, thiserror::Error)]
 pub enum SaveError {
-    #[error("{0} cannot be written as TOML")]
+    #[error("cannot be written as TOML: {0}")]
     Unsupported(String),
     #[error("{path}: {source}")]
     Io { path: String, source: std::io::Error },
@@ -39,6 +39,39 @@ fn num(x: f32) -> Result<String, SaveError> {
     match short.parse::<f64>() {
         Ok(y) if (y as f32).to_bits() == x.to_bits() => Ok(short),
         _ => Ok(format!("{:?}", x as f64)),
+    }
+}
+
+/// The TOML name of each material: the name the file gave it, else `m0`, `m1`...
+/// (zero-padded, so they sort in order), skipping names already taken.
+fn material_names(scene: &Scene) -> Vec<String> {
+    let given: Vec<Option<&str>> =
+        (0..scene.materials.len()).map(|i| scene.labels.materials.get(i).and_then(|l| l.name.as_deref())).collect();
+    let mut taken: std::collections::HashSet<String> = given.iter().flatten().map(|s| s.to_string()).collect();
+    let width = scene.materials.len().saturating_sub(1).to_string().len();
+    given
+        .iter()
+        .enumerate()
+        .map(|(i, g)| match g {
+            Some(n) => n.to_string(),
+            None => {
+                let mut n = format!("m{i:0width$}");
+                while taken.contains(&n) {
+                    n.push('_');
+                }
+                taken.insert(n.clone());
+                n
+            }
+        })
+        .collect()
+}
+
+/// A table key: bare when TOML allows it, else quoted.
+fn key(name: &str) -> String {
+    if !name.is_empty() && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-') {
+        name.to_owned()
+    } else {
+        toml::Value::String(name.to_owned()).to_string()
     }
 }
 
@@ -108,10 +141,10 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
         }
     }
 
-    let width = scene.materials.len().saturating_sub(1).to_string().len();
-    let name = |id: u32| format!("m{id:0width$}");
+    let names = material_names(scene);
+    let name = |id: u32| names[id as usize].clone();
     for (i, m) in scene.materials.iter().enumerate() {
-        let _ = writeln!(s, "\n[material.{}]", name(i as u32));
+        let _ = writeln!(s, "\n[material.{}]", key(&names[i]));
         match &m.texture {
             Texture::Solid(c) => {
                 let _ = writeln!(s, "color = {}", vec3(*c)?);
@@ -137,7 +170,13 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 );
             }
             Texture::Image { .. } => {
-                return Err(SaveError::Unsupported(format!("material {i}'s image texture")));
+                let kind = scene.labels.materials.get(i).and_then(|l| l.texture.as_deref());
+                let why = match kind {
+                    Some("planet") => "its planet texture is generated when the scene loads and has no TOML form yet",
+                    Some("image") => "its image texture has no TOML form yet",
+                    _ => "its image texture has no TOML form",
+                };
+                return Err(SaveError::Unsupported(format!("{}: {why}", scene.material_label(i))));
             }
         }
         let _ = writeln!(
@@ -162,12 +201,12 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
     // Kinds in the loader's order.
     for kind in 0..7 {
         for (i, o) in scene.objects.iter().enumerate() {
-            let material = name(o.material.0);
+            let material = toml::Value::String(name(o.material.0)).to_string();
             match (&o.shape, kind) {
                 (Shape::Sphere(x), 0) => {
                     let _ = writeln!(
                         s,
-                        "\n[[sphere]]\ncenter = {}\nradius = {}\nmaterial = \"{material}\"",
+                        "\n[[sphere]]\ncenter = {}\nradius = {}\nmaterial = {material}",
                         vec3(x.center)?,
                         num(x.radius)?
                     );
@@ -175,7 +214,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 (Shape::Quad(q), 1) => {
                     let _ = writeln!(
                         s,
-                        "\n[[quad]]\ncorner = {}\nedge_u = {}\nedge_v = {}\nmaterial = \"{material}\"",
+                        "\n[[quad]]\ncorner = {}\nedge_u = {}\nedge_v = {}\nmaterial = {material}",
                         vec3(q.corner)?,
                         vec3(q.edge_u)?,
                         vec3(q.edge_v)?
@@ -183,13 +222,12 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 }
                 (Shape::Polygon(p), 2) => {
                     let vertices = p.vertices().iter().map(|v| vec3(*v)).collect::<Result<Vec<_>, _>>()?;
-                    let _ =
-                        writeln!(s, "\n[[polygon]]\nvertices = [{}]\nmaterial = \"{material}\"", vertices.join(", "));
+                    let _ = writeln!(s, "\n[[polygon]]\nvertices = [{}]\nmaterial = {material}", vertices.join(", "));
                 }
                 (Shape::Cylinder(c), 3) => {
                     let _ = writeln!(
                         s,
-                        "\n[[cylinder]]\nbase = {}\naxis = {}\nradius = {}\nheight = {}\ncaps = {}\nmaterial = \"{material}\"",
+                        "\n[[cylinder]]\nbase = {}\naxis = {}\nradius = {}\nheight = {}\ncaps = {}\nmaterial = {material}",
                         vec3(c.base)?,
                         vec3(c.axis)?,
                         num(c.radius)?,
@@ -200,7 +238,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 (Shape::Cone(c), 4) => {
                     let _ = writeln!(
                         s,
-                        "\n[[cone]]\nbase = {}\naxis = {}\nradius = {}\ntop_radius = {}\nheight = {}\ncap = {}\ntop_cap = {}\nmaterial = \"{material}\"",
+                        "\n[[cone]]\nbase = {}\naxis = {}\nradius = {}\ntop_radius = {}\nheight = {}\ncap = {}\ntop_cap = {}\nmaterial = {material}",
                         vec3(c.base)?,
                         vec3(c.axis)?,
                         num(c.radius)?,
@@ -213,7 +251,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 (Shape::Triangle(t), 5) => {
                     let _ = writeln!(
                         s,
-                        "\n[[triangle]]\nvertices = [{}, {}, {}]\nmaterial = \"{material}\"",
+                        "\n[[triangle]]\nvertices = [{}, {}, {}]\nmaterial = {material}",
                         vec3(t.v0)?,
                         vec3(t.v1)?,
                         vec3(t.v2)?
@@ -221,9 +259,12 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 }
                 (Shape::Mesh(m), 6) => {
                     if !m.uvs().is_empty() {
-                        return Err(SaveError::Unsupported(format!("object {i}'s mesh texture coordinates")));
+                        return Err(SaveError::Unsupported(format!(
+                            "{}: mesh texture coordinates have no TOML form yet",
+                            scene.object_label(i)
+                        )));
                     }
-                    let _ = writeln!(s, "\n[[mesh]]\nsmooth = {}\nmaterial = \"{material}\"", m.is_smooth());
+                    let _ = writeln!(s, "\n[[mesh]]\nsmooth = {}\nmaterial = {material}", m.is_smooth());
                     let mut array = |s: &mut String, key: &str, items: &[Vec3]| -> Result<(), SaveError> {
                         let _ = writeln!(s, "{key} = [");
                         for v in items {
@@ -249,7 +290,14 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                     let _ = writeln!(s, "]");
                 }
                 (Shape::Transformed(_), 0) => {
-                    return Err(SaveError::Unsupported(format!("object {i} (a shape under a general transform)")));
+                    let what = match scene.labels.objects.get(i).map(|l| l.table) {
+                        Some(t @ ("sphere" | "cylinder" | "cone")) => format!("a {t} stretched by a non-uniform scale"),
+                        _ => "a shape under a non-uniform scale".to_owned(),
+                    };
+                    return Err(SaveError::Unsupported(format!(
+                        "{}: {what} has no TOML form without its transform",
+                        scene.object_label(i)
+                    )));
                 }
                 _ => {}
             }
@@ -291,7 +339,10 @@ pub fn write_atomically(
         w.flush()?;
     }
     temp.as_file().sync_all()?;
-    temp.persist(path).map_err(|e| e.error)?;
+    let temp_path = temp.path().to_owned();
+    let result = temp.persist(path);
+    crate::cleanup::forget(&temp_path);
+    result.map_err(|e| e.error)?;
     Ok(())
 }
 

@@ -54,31 +54,55 @@ impl ImageMap {
             std::io::ErrorKind::NotFound => TextureError::NotFound(e),
             _ => TextureError::Unreadable(e),
         })?;
-        Self::decode(bytes, ImageFormat::from_path(path).ok(), encoding)
+        Self::decode(&bytes, ImageFormat::from_path(path).ok(), encoding)
     }
 
-    /// An image file's bytes decoded, `hint` the format its name or MIME type gives.
-    pub fn decode(
-        bytes: Vec<u8>,
-        hint: Option<ImageFormat>,
-        encoding: ColorEncoding,
-    ) -> Result<ImageMap, TextureError> {
-        let mut reader = ImageReader::new(Cursor::new(bytes));
-        // The content decides and the name is only the fallback: a JPEG named .png still
-        // loads, and garbage named .png is reported as a corrupt PNG, not as unsupported.
-        if let Some(format) = hint {
-            reader.set_format(format);
+    /// An image file's bytes decoded, `hint` the format its name or MIME type gives:
+    /// its size read from the header first (a small file can claim a huge image), then
+    /// decoded within the texture budget and converted texel by texel, without a second
+    /// full-size copy.
+    pub fn decode(bytes: &[u8], hint: Option<ImageFormat>, encoding: ColorEncoding) -> Result<ImageMap, TextureError> {
+        let reader = || -> Result<ImageReader<Cursor<&[u8]>>, TextureError> {
+            let mut reader = ImageReader::new(Cursor::new(bytes));
+            // The content decides and the name is only the fallback: a JPEG named .png
+            // still loads, and garbage named .png is reported as a corrupt PNG.
+            if let Some(format) = hint {
+                reader.set_format(format);
+            }
+            reader.with_guessed_format().map_err(TextureError::Unreadable)
+        };
+        let (width, height) = reader()?.into_dimensions().map_err(|e| match e {
+            ImageError::Unsupported(_) => TextureError::Unsupported(e),
+            _ => TextureError::Corrupt(e),
+        })?;
+        let need = width as u64 * height as u64 * super::TEXEL_BYTES;
+        if need > super::MAX_TEXTURE_BYTES {
+            return Err(TextureError::TooLarge { width, height, bytes: need });
         }
-        let reader = reader.with_guessed_format().map_err(TextureError::Unreadable)?;
+        let mut reader = reader()?;
+        let mut limits = image::Limits::default();
+        limits.max_alloc = Some(super::MAX_TEXTURE_BYTES);
+        reader.limits(limits);
         let image = reader.decode().map_err(|e| match e {
             ImageError::Unsupported(_) => TextureError::Unsupported(e),
+            ImageError::Limits(_) => TextureError::TooLarge { width, height, bytes: need },
             _ => TextureError::Corrupt(e),
         })?;
         let (width, height) = (image.width(), image.height());
         if width == 0 || height == 0 {
             return Err(TextureError::Empty { width, height });
         }
-        let texels = image.to_rgb32f().pixels().map(|p| Vec3::from(p.0)).collect();
+        let texels = match &image {
+            image::DynamicImage::ImageLuma8(b) => b.pixels().map(|p| Vec3::splat(p.0[0] as f32 / 255.0)).collect(),
+            image::DynamicImage::ImageLumaA8(b) => b.pixels().map(|p| Vec3::splat(p.0[0] as f32 / 255.0)).collect(),
+            image::DynamicImage::ImageRgb8(b) => {
+                b.pixels().map(|p| Vec3::from(p.0.map(|c| c as f32 / 255.0))).collect()
+            }
+            image::DynamicImage::ImageRgba8(b) => {
+                b.pixels().map(|p| Vec3::new(p.0[0] as f32, p.0[1] as f32, p.0[2] as f32) / 255.0).collect()
+            }
+            other => other.to_rgb32f().pixels().map(|p| Vec3::from(p.0)).collect(),
+        };
         Ok(Self::from_texels(width, height, texels).decoded(encoding))
     }
 

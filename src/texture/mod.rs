@@ -17,6 +17,13 @@ pub use planet::planet;
 
 use crate::math::{Color, Vec2, Vec3};
 
+/// Memory one texture (an image file or a generated map) may take, counted as
+/// [`TEXEL_BYTES`] a texel: 12 as linear colour plus up to 4 of decoded file. 1.25 GiB
+/// allows 8192 x 8192 texels.
+pub const MAX_TEXTURE_BYTES: u64 = 5 << 28;
+/// Bytes per texel counted against [`MAX_TEXTURE_BYTES`].
+pub const TEXEL_BYTES: u64 = 16;
+
 /// How a surface's colour varies over it. Cheap to clone: images are shared.
 #[derive(Clone, Debug)]
 pub enum Texture {
@@ -115,6 +122,8 @@ pub enum TextureError {
     Empty { width: u32, height: u32 },
     /// Saving failed (a missing directory, a full disk).
     Write(image::ImageError),
+    /// Decoding and storing it would need more than [`MAX_TEXTURE_BYTES`].
+    TooLarge { width: u32, height: u32, bytes: u64 },
 }
 
 impl fmt::Display for TextureError {
@@ -130,6 +139,13 @@ impl fmt::Display for TextureError {
                 write!(f, "image is empty ({width}x{height} texels)")
             }
             TextureError::Write(e) => write!(f, "cannot write image: {e}"),
+            TextureError::TooLarge { width, height, bytes } => write!(
+                f,
+                "a {width}x{height} image needs about {:.1} GiB as a texture; the limit is {:.2} GiB \
+                 (8192x8192 texels)",
+                *bytes as f64 / (1u64 << 30) as f64,
+                MAX_TEXTURE_BYTES as f64 / (1u64 << 30) as f64
+            ),
         }
     }
 }
@@ -139,7 +155,7 @@ impl std::error::Error for TextureError {
         match self {
             TextureError::NotFound(e) | TextureError::Unreadable(e) => Some(e),
             TextureError::Unsupported(e) | TextureError::Corrupt(e) | TextureError::Write(e) => Some(e),
-            TextureError::Empty { .. } => None,
+            TextureError::Empty { .. } | TextureError::TooLarge { .. } => None,
         }
     }
 }

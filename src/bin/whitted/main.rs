@@ -1,6 +1,8 @@
 //! The `whitted` command line: argument parsing, progress and messages. The rendering
 //! itself lives in the library.
 
+mod options;
+
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
@@ -81,10 +83,10 @@ struct BenchArgs {
     #[arg(long, default_value = "both", value_parser = ["bvh", "none", "both"])]
     accel: String,
     /// Timed runs per figure; the median is reported.
-    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    #[arg(long, default_value_t = 5, allow_negative_numbers = true, value_parser = options::count::<1000>)]
     runs: u32,
     /// Worker threads (default: all cores).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = options::count::<1024>)]
     threads: Option<u32>,
     /// One JSON object per line instead of a table.
     #[arg(long)]
@@ -127,21 +129,26 @@ struct RenderArgs {
     /// Bits per channel: PNG 8 (default) or 16, EXR 16 (half float, default) or 32.
     #[arg(long, value_parser = clap::value_parser!(u32).range(8..=32))]
     bits: Option<u32>,
-    /// Image width in pixels (overrides the scene's camera).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION))]
+    /// Image width in pixels (default: the scene camera's; alone, the height follows
+    /// the camera's aspect ratio).
+    #[arg(long, allow_negative_numbers = true, value_parser = options::count::<{ MAX_RESOLUTION as u32 }>)]
     width: Option<u32>,
-    /// Image height in pixels (overrides the scene's camera).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION))]
+    /// Image height in pixels (default: the scene camera's; alone, the width follows
+    /// the camera's aspect ratio).
+    #[arg(long, allow_negative_numbers = true, value_parser = options::count::<{ MAX_RESOLUTION as u32 }>)]
     height: Option<u32>,
+    /// Multiplies the image size, e.g. 0.5 for a quick preview at half the width and height.
+    #[arg(long, allow_negative_numbers = true, value_parser = options::scale)]
+    scale: Option<f64>,
     /// Samples per pixel: 1 is one ray through the pixel centre; a square (4, 9, 16...)
     /// a jittered grid; other counts are spread one per row and column (N-rooks).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=65536))]
+    #[arg(long, allow_negative_numbers = true, value_parser = options::count::<65536>)]
     spp: Option<u32>,
     /// Maximum ray depth (the primary ray is 1).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = options::count::<1000>)]
     depth: Option<u32>,
     /// Worker threads (default: all cores).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = options::count::<1024>)]
     threads: Option<u32>,
     /// Acceleration structure: a bounding volume hierarchy, or none (test every object).
     #[arg(long, value_enum, default_value_t = Accel::Bvh)]
@@ -155,7 +162,7 @@ struct RenderArgs {
     /// Print ray counts, render time and Mrays/s.
     #[arg(long)]
     stats: bool,
-    /// No progress bar and no warnings.
+    /// No progress bar, no warnings and no line when done.
     #[arg(short, long)]
     quiet: bool,
 }
@@ -198,6 +205,10 @@ impl From<Accel> for AccelKind {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    // An interrupted render or conversion removes its unfinished output file.
+    if let Err(e) = whitted::cleanup::remove_on_interrupt() {
+        eprintln!("warning: {e}");
+    }
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Bench(args) => bench(args),
@@ -260,7 +271,15 @@ fn render(args: RenderArgs) -> Result<(), String> {
         PendingOutput::create_with(&output, OutputOptions { color, bits: args.bits }).map_err(|e| e.to_string())?;
 
     let mut renderer = Renderer::new(scene).map_err(|e| e.to_string())?;
-    let (w, h) = (args.width.unwrap_or(scene.camera.width), args.height.unwrap_or(scene.camera.height));
+    let camera = (scene.camera.width, scene.camera.height);
+    let (w, h) = options::image_size(camera, args.width, args.height, args.scale, MAX_RESOLUTION as u32)?;
+    let bytes = options::image_bytes(w, h);
+    if !args.quiet && bytes > 1 << 30 {
+        eprintln!(
+            "warning: a {w}x{h} image needs about {:.1} GiB of memory (its film and the PNG being written)",
+            bytes as f64 / (1u64 << 30) as f64
+        );
+    }
     renderer = renderer.size(w, h).accel(args.accel.into());
     if let Some(n) = args.spp {
         renderer = renderer.spp(n);
@@ -296,6 +315,11 @@ fn render(args: RenderArgs) -> Result<(), String> {
     bar.finish_and_clear();
 
     pending.commit(&out.image).map_err(|e| e.to_string())?;
+    if !args.quiet {
+        let (w, h) = (out.image.width(), out.image.height());
+        let samples = if out.corners { "corner sampling".to_owned() } else { format!("{} spp", out.spp) };
+        eprintln!("wrote {}: {w}x{h}, {samples}, {:.2} s", output.display(), load_start.elapsed().as_secs_f64());
+    }
     if args.stats {
         let s = out.stats;
         let secs = out.elapsed.as_secs_f64();

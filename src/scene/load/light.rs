@@ -190,7 +190,7 @@ mod tests {
     #[test]
     fn example_scenes_load_render_and_write_back() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR"));
-        for name in ["scenes/lights.toml", "scenes/glass.toml"] {
+        for name in ["scenes/lights.toml", "scenes/fresnel.toml"] {
             let scene = crate::scene::load_file(&dir.join(name)).unwrap_or_else(|e| panic!("{e}"));
             let mut text = Vec::new();
             crate::scene::save::write_toml(&scene, name, &mut text).unwrap();
@@ -222,7 +222,7 @@ mod tests {
         let edge = 6.0 * 20f32.to_radians().tan();
         assert_eq!(on_floor(0.0), 1.0);
         assert!(on_floor(edge * 0.99) > 0.0 && on_floor(edge * 1.01) == 0.0);
-        let glass = crate::scene::load_file(&dir.join("scenes/glass.toml")).unwrap();
+        let glass = crate::scene::load_file(&dir.join("scenes/fresnel.toml")).unwrap();
         assert!(glass.materials.iter().any(|m| m.fresnel && m.absorbs() && m.transparency > 0.0));
     }
 

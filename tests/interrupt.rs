@@ -1,0 +1,50 @@
+//! An interrupted render (Ctrl-C or SIGTERM) removes its temporary file and leaves an
+//! existing image of the same name untouched.
+#![cfg(unix)]
+
+use std::path::Path;
+use std::time::{Duration, Instant};
+
+fn temp_files(dir: &Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with(".whitted-"))
+        .collect()
+}
+
+fn interrupt_with(signal: i32) {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("room.png");
+    std::fs::write(&out, b"the previous image").unwrap();
+    // Long enough to be interrupted whatever the machine: 2000x2000 pixels, 64 samples.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_whitted"))
+        .args(["render", "--width", "2000", "--height", "2000", "--spp", "64", "-q", "-o"])
+        .arg(&out)
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    while temp_files(tmp.path()).is_empty() {
+        assert!(start.elapsed() < Duration::from_secs(60), "no temporary file appeared");
+        assert!(child.try_wait().unwrap().is_none(), "the render ended before it was interrupted");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(300)); // well into the render
+    // SAFETY: kill(2) on our own child's pid has no memory-safety preconditions.
+    assert_eq!(unsafe { libc::kill(child.id() as libc::pid_t, signal) }, 0);
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "signal {signal}: {status:?}");
+    assert_eq!(temp_files(tmp.path()), Vec::<String>::new(), "signal {signal}: temporary file left behind");
+    assert_eq!(std::fs::read(&out).unwrap(), b"the previous image", "signal {signal}: image touched");
+    assert_eq!(std::fs::read_dir(tmp.path()).unwrap().count(), 1);
+}
+
+#[test]
+fn sigint_removes_the_temporary_file() {
+    interrupt_with(libc::SIGINT);
+}
+
+#[test]
+fn sigterm_removes_the_temporary_file() {
+    interrupt_with(libc::SIGTERM);
+}
