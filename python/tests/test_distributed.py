@@ -1,0 +1,167 @@
+"""whitted.distributed on Dask: tiles and frames on a LocalCluster, on a scheduler and
+workers started as separate commands, and with a worker killed mid-render. All traffic
+stays on 127.0.0.1; every process started here is stopped here."""
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+import whitted
+import whitted.distributed as wd
+from conftest import ROOM
+
+import distributed  # noqa: E402  (a test dependency: a missing one fails, not skips)
+
+
+def room(**kw):
+    return whitted.load(ROOM, **kw)
+
+
+@pytest.fixture(scope="module")
+def local_client():
+    cluster = distributed.LocalCluster(
+        n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None, processes=True
+    )
+    client = distributed.Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()
+
+
+@pytest.mark.parametrize("tile,spp", [(64, 1), (48, 4), (40, 1)])
+def test_render_tiles_on_a_local_cluster_equals_the_local_render(local_client, tile, spp):
+    scene = room(width=150, height=110, spp=spp)
+    tiled = wd.render_tiles(scene, local_client, tile=tile)
+    assert tiled.dtype == np.float32 and tiled.shape == (110, 150, 3) and tiled.flags.c_contiguous
+    assert tiled.tobytes() == whitted.render(scene).tobytes()
+
+
+def test_both_workers_render_tiles(local_client):
+    scene = room(width=160, height=160)
+    seen = set()
+    futures = [local_client.submit(wd._render_region, scene, r, None, None, pure=False)
+               for r in wd._tiles(160, 160, 32)]
+    distributed.wait(futures)
+    for f in futures:
+        seen |= {w for w in local_client.who_has([f])[f.key]}
+    assert len(seen) == 2
+
+
+def test_render_many_writes_every_frame(local_client, tmp_path):
+    base = room(width=48, height=40)
+    frames = []
+    for i in range(5):
+        angle = 2 * np.pi * i / 5
+        frames.append(base.copy(position=(60 * np.sin(angle), 0.0, -60 + 60 * np.cos(angle)), look_at=(0, 0, -60)))
+    paths = wd.render_many(frames, local_client, tmp_path / "out", progress=False, in_flight=3)
+    assert [os.path.basename(p) for p in paths] == [f"frame_{i:04d}.png" for i in range(5)]
+    for frame, path in zip(frames, paths):
+        with open(path, "rb") as f:
+            assert f.read() == whitted.to_png_bytes(whitted.render(frame))
+    assert sorted(os.listdir(tmp_path / "out")) == sorted(os.path.basename(p) for p in paths)
+    # Different frames: the camera moved.
+    assert len({open(p, "rb").read() for p in paths}) == 5
+
+
+def test_scenes_built_in_code_render_on_the_cluster(local_client):
+    scene = whitted.Scene(whitted.Camera((0, 0, 5), (0, 0, 0), width=70, height=50))
+    scene.add(whitted.Sphere((0, 0, 0), 1), whitted.Material(color=(1, 0.3, 0.1), reflectivity=0.2))
+    scene.add(whitted.Mesh(np.array([[-2, -1, -1], [2, -1, -1], [0, 2, -2]]), [[0, 1, 2]]), whitted.Material())
+    scene.add(whitted.PointLight((3, 4, 5)))
+    assert wd.render_tiles(scene, local_client, tile=32).tobytes() == whitted.render(scene).tobytes()
+
+
+# -- a scheduler and workers started by hand ------------------------------------------
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def dask_command() -> list:
+    exe = os.path.join(os.path.dirname(sys.executable), "dask")
+    return [exe] if os.path.exists(exe) else [sys.executable, "-m", "dask"]
+
+
+class HandCluster:
+    """`dask scheduler` and `dask worker` as separate processes, each in its own
+    process group so that stopping it leaves nothing behind."""
+
+    def __init__(self, workers: int):
+        self.port = free_port()
+        self.address = f"tcp://127.0.0.1:{self.port}"
+        self.procs = []
+        self.start(["scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--no-dashboard"])
+        for _ in range(workers):
+            self.start(["worker", self.address, "--host", "127.0.0.1", "--nthreads", "1", "--no-dashboard",
+                        "--no-nanny", "--death-timeout", "30"])
+
+    def start(self, args):
+        self.procs.append(subprocess.Popen(dask_command() + args, start_new_session=True,
+                                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+
+    def stop(self):
+        for p in reversed(self.procs):
+            if p.poll() is None:
+                os.killpg(p.pid, signal.SIGTERM)
+        deadline = time.monotonic() + 20
+        for p in self.procs:
+            try:
+                p.wait(timeout=max(0.1, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                os.killpg(p.pid, signal.SIGKILL)
+                p.wait()
+        for p in self.procs:
+            with pytest.raises(ProcessLookupError):
+                os.killpg(p.pid, 0)  # no process of its group is left
+
+
+@pytest.fixture
+def hand_cluster():
+    cluster = HandCluster(workers=2)
+    client = None
+    try:
+        client = distributed.Client(cluster.address, timeout=60)
+        client.wait_for_workers(2, timeout=60)
+        yield cluster, client
+    finally:
+        if client is not None:
+            client.close()
+        cluster.stop()
+
+
+def test_render_tiles_on_a_scheduler_and_workers_started_by_hand(hand_cluster):
+    cluster, client = hand_cluster
+    workers = client.scheduler_info()["workers"]
+    assert len(workers) == 2 and all(a.startswith("tcp://127.0.0.1:") for a in workers)
+    scene = room(width=130, height=90, spp=4)
+    assert wd.render_tiles(scene, client, tile=32).tobytes() == whitted.render(scene).tobytes()
+
+
+def test_a_worker_killed_during_render_tiles_costs_a_retry_not_the_image(hand_cluster):
+    cluster, client = hand_cluster
+    scene = room(width=320, height=320, spp=16)
+    pids = client.run(os.getpid)  # worker address -> pid
+    victim = sorted(pids.values())[0]
+    killed = []
+
+    def kill_after_first_tiles(done, total):
+        if done == 2 and not killed:
+            os.kill(victim, signal.SIGKILL)
+            killed.append((done, total))
+
+    image = wd.render_tiles(scene, client, tile=32, progress=kill_after_first_tiles)
+    assert killed and killed[0][0] < killed[0][1], "the worker was not killed mid-render"
+    assert cluster.procs[1 + [p.pid for p in cluster.procs[1:]].index(victim)].wait(timeout=10) == -signal.SIGKILL
+    assert len(client.scheduler_info()["workers"]) == 1
+    assert image.tobytes() == whitted.render(scene).tobytes()
