@@ -32,10 +32,10 @@ import whitted.distributed as wd  # noqa: E402
 ROOM = os.path.join(HERE, "..", "scenes", "room.toml")
 
 
-def turntable(scene, frames):
+def turntable(scene, frames, radius=35.0):
+    """The camera circling the middle sphere inside the room (80 wide)."""
     cam = scene.camera
     cx, _, cz = cam.look_at
-    radius = math.hypot(cam.position[0] - cx, cam.position[2] - cz)
     start = math.atan2(cam.position[0] - cx, cam.position[2] - cz)
     for i in range(frames):
         a = start + 2 * math.pi * i / frames

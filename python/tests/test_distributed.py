@@ -101,10 +101,12 @@ class HandCluster:
         self.port = free_port()
         self.address = f"tcp://127.0.0.1:{self.port}"
         self.procs = []
-        self.start(["scheduler", "--host", "127.0.0.1", "--port", str(self.port), "--no-dashboard"])
+        # Without --dashboard-address, the HTTP server (health, metrics) would listen on
+        # all interfaces (0.0.0.0:8787) even with --no-dashboard.
+        local = ["--host", "127.0.0.1", "--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
+        self.start(["scheduler", "--port", str(self.port)] + local)
         for _ in range(workers):
-            self.start(["worker", self.address, "--host", "127.0.0.1", "--nthreads", "1", "--no-dashboard",
-                        "--no-nanny", "--death-timeout", "30"])
+            self.start(["worker", self.address, "--nthreads", "1", "--no-nanny", "--death-timeout", "30"] + local)
 
     def start(self, args):
         self.procs.append(subprocess.Popen(dask_command() + args, start_new_session=True,
@@ -126,6 +128,27 @@ class HandCluster:
                 os.killpg(p.pid, 0)  # no process of its group is left
 
 
+def listening_addresses(pids):
+    """The local addresses of the TCP sockets `pids` listen on (Linux: /proc)."""
+    inodes = set()
+    for pid in pids:
+        for fd in os.listdir(f"/proc/{pid}/fd"):
+            try:
+                link = os.readlink(f"/proc/{pid}/fd/{fd}")
+            except OSError:
+                continue
+            if link.startswith("socket:["):
+                inodes.add(link[8:-1])
+    found = []
+    for table in ("/proc/net/tcp", "/proc/net/tcp6"):
+        with open(table) as f:
+            for row in list(f)[1:]:
+                cols = row.split()
+                if cols[3] == "0A" and cols[9] in inodes:  # LISTEN
+                    found.append(cols[1].split(":")[0])
+    return found
+
+
 @pytest.fixture
 def hand_cluster():
     cluster = HandCluster(workers=2)
@@ -144,6 +167,10 @@ def test_render_tiles_on_a_scheduler_and_workers_started_by_hand(hand_cluster):
     cluster, client = hand_cluster
     workers = client.scheduler_info()["workers"]
     assert len(workers) == 2 and all(a.startswith("tcp://127.0.0.1:") for a in workers)
+    if os.path.isdir("/proc/net"):
+        # Every socket the scheduler and workers listen on is on the loopback address.
+        found = listening_addresses([p.pid for p in cluster.procs])
+        assert len(found) >= 3 and all(a in ("0100007F", "00000000000000000000000001000000") for a in found), found
     scene = room(width=130, height=90, spp=4)
     assert wd.render_tiles(scene, client, tile=32).tobytes() == whitted.render(scene).tobytes()
 
