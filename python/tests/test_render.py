@@ -203,6 +203,7 @@ def test_progress_drives_a_tqdm_bar():
     whitted.render(room(width=100, height=100), progress=bar)
     assert bar.n == bar.total == 7 * 7
     bar.close()
+    assert whitted.render(room(), progress=True).shape == (48, 64, 3)  # a bar of its own
 
 
 SPHERE_TOML = """

@@ -65,8 +65,10 @@ def _progress_callback(progress: Any) -> Optional[Callable[[int, int], Any]]:
     if progress is None or progress is False:
         return None
     if progress is True:
-        from tqdm.auto import tqdm
-
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            raise ImportError("progress=True shows a tqdm bar: pip install tqdm (or pass a callable)") from None
         progress = tqdm(unit="tile", leave=False)
     if hasattr(progress, "update") and hasattr(progress, "n") and hasattr(progress, "total"):
         bar = progress

@@ -46,10 +46,13 @@ def _render_frame(base: _Base, camera, spp, max_depth) -> bytes:
     return whitted.to_png_bytes(image)
 
 
-def _bar(progress: Any, total: int, unit: str):
+def _bar(progress: Any, total: Optional[int], unit: str):
+    """A tqdm bar for progress=True; none if tqdm is not installed (it is optional)."""
     if progress is True:
-        from tqdm.auto import tqdm
-
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            return None
         return tqdm(total=total, unit=unit)
     return None
 
