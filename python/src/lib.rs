@@ -170,6 +170,7 @@ impl CoreScene {
     /// thread; this thread wakes every 20 ms to report progress and to look for Ctrl-C,
     /// which stops the render (within one tile) and raises KeyboardInterrupt.
     #[pyo3(signature = (camera, spp=None, max_depth=None, threads=None, region=None, progress=None))]
+    #[allow(clippy::too_many_arguments)] // Python's keyword arguments
     fn render<'py>(
         &self,
         py: Python<'py>,
