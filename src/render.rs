@@ -99,6 +99,22 @@ pub struct Renderer<'s> {
     corners: bool,
     one_sided: bool,
     cutoff: f32,
+    /// The rectangle to render, `(x0, y0, x1, y1)` exclusive; the whole image if `None`.
+    region: Option<(u32, u32, u32, u32)>,
+}
+
+/// A region that is not a non-empty rectangle inside the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "region {x0},{y0},{x1},{y1} is not a non-empty rectangle inside the {width} x {height} image (need x0 < x1 <= width, y0 < y1 <= height)"
+)]
+pub struct RegionError {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+    pub width: u32,
+    pub height: u32,
 }
 
 /// What a render produced.
@@ -133,7 +149,31 @@ impl<'s> Renderer<'s> {
             corners: false,
             one_sided: false,
             cutoff: scene.settings.cutoff,
+            region: None,
         })
+    }
+
+    /// Renders only the pixels `x0..x1` × `y0..y1` of the image (set its size first),
+    /// into an image of the region's size. Each pixel is exactly what the full render
+    /// gives it: tiles stay on the full image's grid, so a frame can be split across
+    /// processes or machines and reassembled bit for bit.
+    pub fn region(mut self, x0: u32, y0: u32, x1: u32, y1: u32) -> Result<Self, RegionError> {
+        let (width, height) = (self.width, self.height);
+        if !(x0 < x1 && x1 <= width && y0 < y1 && y1 <= height) {
+            return Err(RegionError { x0, y0, x1, y1, width, height });
+        }
+        self.region = Some((x0, y0, x1, y1));
+        Ok(self)
+    }
+
+    /// The rectangle rendered: the region, kept inside the image should the size have
+    /// shrunk since, or the whole image.
+    fn bounds(&self) -> (u32, u32, u32, u32) {
+        let (w, h) = (self.width, self.height);
+        match self.region {
+            Some((x0, y0, x1, y1)) if x0 < w && y0 < h => (x0, y0, x1.min(w), y1.min(h)),
+            _ => (0, 0, w, h),
+        }
     }
 
     /// One ray through each pixel corner, (width + 1) × (height + 1) rays, and each pixel
@@ -238,6 +278,21 @@ impl<'s> Renderer<'s> {
         })
     }
 
+    /// [`Renderer::render_with_progress`] that stops soon after `cancel` becomes true and
+    /// then returns `None` (a binding polls for Ctrl-C while the render runs elsewhere).
+    pub fn render_with_progress_cancellable(
+        &self,
+        progress: &(dyn Fn(usize, usize) + Sync),
+        cancel: &AtomicBool,
+    ) -> Option<RenderOutput> {
+        self.in_pool(|| {
+            let world = World::new(self.scene, self.accel);
+            let mut out = self.render_tiles(&world, progress, Some(cancel))?;
+            out.build_time = world.build_time();
+            Some(out)
+        })
+    }
+
     /// [`Renderer::render_cancellable`] with a prebuilt acceleration structure.
     pub fn render_world_cancellable(&self, world: &World, cancel: &AtomicBool) -> Option<RenderOutput> {
         self.in_pool(|| self.render_tiles(world, &|_, _| {}, Some(cancel)))
@@ -267,16 +322,27 @@ impl<'s> Renderer<'s> {
             return self.render_corners(&rig, &integrator, progress, cancel, start);
         }
 
-        let (width, tiles_x) = (self.width as usize, self.width.div_ceil(TILE) as usize);
-        let total = tiles_x * self.height.div_ceil(TILE) as usize;
+        // The tiles of the full image's grid that meet the rendered rectangle; a tile is
+        // traced whole and only its pixels inside the rectangle are kept.
+        let (rx0, ry0, rx1, ry1) = self.bounds();
+        let (tx0, ty0) = (rx0 / TILE, ry0 / TILE);
+        let tiles_x = (rx1.div_ceil(TILE) - tx0) as usize;
+        let total = tiles_x * (ry1.div_ceil(TILE) - ty0) as usize;
+        let width = (rx1 - rx0) as usize;
         let done = AtomicUsize::new(0);
-        let mut image = Image::new(self.width, self.height);
+        let mut image = Image::new(rx1 - rx0, ry1 - ry0);
         let workers = rayon::current_num_threads().min(total);
         let queue = TileQueue::new(total, workers);
-        // A tile writes its pixels into its band of TILE rows, locked only for the copy;
-        // a worker keeps its buffers for all the tiles it takes.
-        let bands: Vec<Mutex<&mut [Color]>> =
-            image.pixels_mut().chunks_mut(TILE as usize * width).map(Mutex::new).collect();
+        // A tile writes its pixels into its band of up to TILE rows, locked only for the
+        // copy; a worker keeps its buffers for all the tiles it takes.
+        let mut bands: Vec<Mutex<&mut [Color]>> = Vec::new();
+        let mut rest = image.pixels_mut();
+        for ty in ty0..ry1.div_ceil(TILE) {
+            let rows = ((ty + 1) * TILE).min(ry1) - (ty * TILE).max(ry0);
+            let (band, tail) = rest.split_at_mut(rows as usize * width);
+            bands.push(Mutex::new(band));
+            rest = tail;
+        }
         let per_worker: Vec<RayStats> = (0..workers)
             .into_par_iter()
             .with_max_len(1)
@@ -286,13 +352,16 @@ impl<'s> Renderer<'s> {
                     if cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                         return None;
                     }
-                    let (x0, y0) = ((i % tiles_x) as u32 * TILE, (i / tiles_x) as u32 * TILE);
+                    let (x0, y0) = ((tx0 + (i % tiles_x) as u32) * TILE, (ty0 + (i / tiles_x) as u32) * TILE);
                     let (x1, y1) = ((x0 + TILE).min(self.width), (y0 + TILE).min(self.height));
                     self.render_tile(&rig, &integrator, (x0, y0, x1, y1), &mut tile, &mut stats);
+                    let (cx0, cx1, band_y) = (x0.max(rx0), x1.min(rx1), y0.max(ry0));
                     let mut rows = bands[i / tiles_x].lock().unwrap_or_else(|e| e.into_inner());
-                    for (y, row) in tile.pixels.chunks((x1 - x0) as usize).enumerate() {
-                        let at = y * width + x0 as usize;
-                        rows[at..at + row.len()].copy_from_slice(row);
+                    for y in band_y..y1.min(ry1) {
+                        let from = (y - y0) as usize * (x1 - x0) as usize + (cx0 - x0) as usize;
+                        let at = (y - band_y) as usize * width + (cx0 - rx0) as usize;
+                        rows[at..at + (cx1 - cx0) as usize]
+                            .copy_from_slice(&tile.pixels[from..from + (cx1 - cx0) as usize]);
                     }
                     drop(rows);
                     progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
@@ -369,10 +438,11 @@ impl<'s> Renderer<'s> {
         cancel: Option<&AtomicBool>,
         start: Instant,
     ) -> Option<RenderOutput> {
-        let (w, h) = (self.width, self.height);
+        let (x0, y0, x1, y1) = self.bounds();
+        let (w, h) = (x1 - x0, y1 - y0);
         let total = h as usize + 1;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let rows: Vec<(Vec<Color>, RayStats)> = (0..=h)
+        let rows: Vec<(Vec<Color>, RayStats)> = (y0..=y1)
             .into_par_iter()
             .map_init(
                 || (Wave::default(), Vec::new(), Vec::new()),
@@ -382,7 +452,7 @@ impl<'s> Renderer<'s> {
                     }
                     let mut stats = RayStats::default();
                     let mut row = Vec::with_capacity(w as usize + 1);
-                    for xs in (0..=w).collect::<Vec<_>>().chunks(WAVE_RAYS) {
+                    for xs in (x0..=x1).collect::<Vec<_>>().chunks(WAVE_RAYS) {
                         rays.clear();
                         rays.extend(xs.iter().map(|&x| rig.ray(x as f32, y as f32)));
                         wave.trace(integrator, rays, None, colors, &mut stats);

@@ -159,6 +159,11 @@ struct RenderArgs {
     /// opaque surfaces one-sided, no shadow ray when the normal faces away from a light.
     #[arg(long, conflicts_with_all = ["spp", "depth"])]
     spd_rules: bool,
+    /// Render only the pixels X0..X1 by Y0..Y1 (X1, Y1 exclusive) of the image and write
+    /// just that part, exactly as it is in the full image: a batch system can split a
+    /// frame across machines.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_region)]
+    region: Option<[u32; 4]>,
     /// Print ray counts, render time and Mrays/s.
     #[arg(long)]
     stats: bool,
@@ -293,6 +298,9 @@ fn render(args: RenderArgs) -> Result<(), String> {
     if args.spd_rules {
         renderer = renderer.spd_rules();
     }
+    if let Some([x0, y0, x1, y1]) = args.region {
+        renderer = renderer.region(x0, y0, x1, y1).map_err(|e| format!("--region: {e}"))?;
+    }
 
     let show_progress = !args.quiet && std::io::stderr().is_terminal();
     let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
@@ -358,6 +366,16 @@ fn render(args: RenderArgs) -> Result<(), String> {
         println!("speed       {:.2} Mrays/s", s.total() as f64 / secs / 1e6);
     }
     Ok(())
+}
+
+/// `X0,Y0,X1,Y1` as four pixel coordinates.
+fn parse_region(s: &str) -> Result<[u32; 4], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let nums: Option<Vec<u32>> = parts.iter().map(|p| p.parse().ok()).collect();
+    match nums.as_deref() {
+        Some(&[x0, y0, x1, y1]) => Ok([x0, y0, x1, y1]),
+        _ => Err(format!("expected X0,Y0,X1,Y1 (four whole numbers of pixels), got {s:?}")),
+    }
 }
 
 fn convert(args: ConvertArgs) -> Result<(), String> {

@@ -1,0 +1,46 @@
+"""Type stubs for the compiled part of whitted (python/src/lib.rs)."""
+
+from typing import Callable, Optional, Sequence, Tuple
+
+import numpy as np
+import numpy.typing as npt
+
+_V3 = Tuple[float, float, float]
+_CameraArgs = Tuple[_V3, _V3, _V3, float, int, int]
+
+MAX_RESOLUTION: int
+
+class SceneError(Exception):
+    """A scene that cannot be used; the message is the command line's
+    (file:line:column: field: problem)."""
+
+class CoreScene:
+    @staticmethod
+    def load(path: str, nff: bool) -> Tuple["CoreScene", str]: ...
+    @staticmethod
+    def parse(text: str, name: str, base_dir: str, nff: bool) -> "CoreScene": ...
+    @staticmethod
+    def empty() -> "CoreScene": ...
+    def camera(self) -> _CameraArgs: ...
+    def settings(self) -> Tuple[_V3, int, int, float]: ...
+    def counts(self) -> Tuple[int, int, int]: ...
+    def extend(
+        self,
+        background: Optional[_V3],
+        ambient: Optional[float],
+        materials: Sequence[tuple],
+        objects: Sequence[tuple],
+        lights: Sequence[Tuple[_V3, _V3]],
+    ) -> "CoreScene": ...
+    def render(
+        self,
+        camera: _CameraArgs,
+        spp: Optional[int] = None,
+        max_depth: Optional[int] = None,
+        threads: Optional[int] = None,
+        region: Optional[Tuple[int, int, int, int]] = None,
+        progress: Optional[Callable[[int, int], object]] = None,
+    ) -> npt.NDArray[np.float32]: ...
+
+def write_png_array(image: npt.NDArray[np.float32], path: str) -> None: ...
+def encode_png(image: npt.NDArray[np.float32]) -> bytes: ...

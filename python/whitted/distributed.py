@@ -1,0 +1,195 @@
+"""Rendering on a Dask cluster: one image as tiles, or many frames.
+
+Works with any ``distributed.Client``: a ``LocalCluster``, ``dask-jobqueue`` on an HPC
+cluster, Kubernetes, or a scheduler and workers started by hand (docs/distributed.md).
+Workers need ``whitted`` installed and, for scenes that name files (textures, meshes),
+those files at the same absolute paths.
+
+- The scene goes to the workers once (``client.scatter``, to every worker, so losing one
+  loses no copy), not with every task; frames that share geometry share that copy.
+- Each tile is a region render (:func:`whitted.render` with ``region=``) on the full
+  image's tile grid, so the assembled image equals the local render bit for bit.
+- A worker that dies takes only its running tasks with it: the scheduler reruns them
+  elsewhere (``retries`` also covers exceptions inside a task).
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from typing import Any, Iterable, List, Optional
+
+import numpy as np
+
+import whitted
+from ._scene import Scene, _Base, _count
+
+
+def _tiles(width: int, height: int, tile: int):
+    return [
+        (x, y, min(x + tile, width), min(y + tile, height))
+        for y in range(0, height, tile)
+        for x in range(0, width, tile)
+    ]
+
+
+# One render thread per task: a worker runs as many tasks at once as it has threads
+# (``dask worker --nthreads``), so give workers as many threads as cores.
+def _render_region(scene: Scene, region, spp, max_depth) -> np.ndarray:
+    return whitted.render(scene, spp=spp, max_depth=max_depth, region=region, threads=1)
+
+
+def _render_frame(base: _Base, camera, spp, max_depth) -> bytes:
+    scene = Scene.__new__(Scene)
+    scene._base, scene.camera, scene.spp, scene.max_depth = base, camera, spp, max_depth
+    image = whitted.render(scene, threads=1)
+    return whitted.to_png_bytes(image)
+
+
+def _bar(progress: Any, total: Optional[int], unit: str):
+    """A tqdm bar for progress=True; none if tqdm is not installed (it is optional)."""
+    if progress is True:
+        try:
+            from tqdm.auto import tqdm
+        except ImportError:
+            return None
+        return tqdm(total=total, unit=unit)
+    return None
+
+
+def render_tiles(
+    scene: Scene,
+    client,
+    tile: int = 256,
+    spp: Optional[int] = None,
+    max_depth: Optional[int] = None,
+    retries: int = 2,
+    progress: Any = None,
+) -> np.ndarray:
+    """Renders `scene` as tiles of `tile` pixels on the cluster behind `client` and
+    returns the assembled image, identical bit for bit to ``whitted.render(scene)``.
+
+    `tile` should be a multiple of 16 (the renderer's own tile grid), so no pixel is
+    traced twice. `progress`: True for a tqdm bar, or a callable (done, total).
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene: expected whitted.Scene, got {type(scene).__name__}")
+    tile = _count("tile", tile, 1, 1 << 20)
+    from distributed import as_completed
+
+    width, height = scene.width, scene.height
+    regions = _tiles(width, height, tile)
+    [remote] = client.scatter([scene], broadcast=True, hash=False)
+    futures = {
+        client.submit(_render_region, remote, r, spp, max_depth, retries=retries, pure=False): r for r in regions
+    }
+    image = np.empty((height, width, 3), dtype=np.float32)
+    bar = _bar(progress, len(regions), "tile")
+    try:
+        for done, future in enumerate(as_completed(futures), 1):
+            x0, y0, x1, y1 = futures[future]
+            image[y0:y1, x0:x1] = future.result()
+            future.release()
+            if bar is not None:
+                bar.update(1)
+            elif callable(progress):
+                progress(done, len(regions))
+    finally:
+        if bar is not None:
+            bar.close()
+        for f in futures:
+            f.cancel()
+        remote.release()
+    return image
+
+
+def _write_atomically(path: str, data: bytes) -> None:
+    folder = os.path.dirname(path) or "."
+    fd, tmp = tempfile.mkstemp(prefix=".whitted-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def render_many(
+    scenes: Iterable[Scene],
+    client,
+    out_dir: os.PathLike,
+    name: str = "frame_{:04d}.png",
+    spp: Optional[int] = None,
+    max_depth: Optional[int] = None,
+    retries: int = 2,
+    in_flight: Optional[int] = None,
+    progress: Any = True,
+) -> List[str]:
+    """Renders each scene (frames of an animation, say) on the cluster to a numbered PNG
+    file in `out_dir` (``name.format(i)``), each written (atomically) as it arrives.
+
+    Workers send back PNG bytes, not float images, and at most `in_flight` frames are
+    out at a time (default: twice the cluster's threads), so memory stays bounded however
+    many frames there are. Scenes that share geometry (made with ``scene.copy(...)``)
+    send it once. Returns the paths in frame order.
+    """
+    from distributed import as_completed
+
+    out_dir = os.fspath(out_dir)
+    os.makedirs(out_dir, exist_ok=True)
+    if in_flight is None:
+        threads = sum(client.nthreads().values()) or 1
+        in_flight = 2 * threads
+    in_flight = _count("in_flight", in_flight, 1, 1 << 20)
+    total = len(scenes) if hasattr(scenes, "__len__") else None
+    bar = _bar(progress, total, "frame")
+    shared = {}  # id(base) -> (base, future): geometry sent once
+    paths: dict = {}
+    pending = as_completed()
+    frames = enumerate(scenes)
+
+    def submit_next() -> bool:
+        try:
+            i, scene = next(frames)
+        except StopIteration:
+            return False
+        if not isinstance(scene, Scene):
+            raise TypeError(f"scenes[{i}]: expected whitted.Scene, got {type(scene).__name__}")
+        key = id(scene._base)
+        if key not in shared:
+            [remote] = client.scatter([scene._base], broadcast=True, hash=False)
+            shared[key] = (scene._base, remote)
+        s = scene.spp if spp is None else spp
+        d = scene.max_depth if max_depth is None else max_depth
+        future = client.submit(_render_frame, shared[key][1], scene.camera, s, d, retries=retries, pure=False)
+        paths[future.key] = (i, os.path.join(out_dir, name.format(i)))
+        pending.add(future)
+        return True
+
+    try:
+        for _ in range(in_flight):
+            if not submit_next():
+                break
+        written = []
+        for done, future in enumerate(pending, 1):
+            i, path = paths.pop(future.key)
+            _write_atomically(path, future.result())
+            future.release()
+            written.append((i, path))
+            if bar is not None:
+                bar.update(1)
+            elif callable(progress):
+                progress(done, total)
+            submit_next()
+    finally:
+        if bar is not None:
+            bar.close()
+        for _, remote in shared.values():
+            remote.release()
+    return [p for _, p in sorted(written)]
