@@ -830,7 +830,7 @@ mod tests {
             assert!(left >= 8 * (blocks.len() + mirrors.len() - taken), "tile at ({x}, {y})");
             assert!(blocks[mine..].iter().all(|b| found[b.node()..b.node() + 8].iter().all(|(_, hit)| hit.is_none())));
         }
-        if std::is_x86_feature_detected!("avx2") {
+        if crate::accel::lanes::avx2() {
             assert!(blocks.len() >= 40 && mirrors.len() >= 4, "{} and {} blocks", blocks.len(), mirrors.len());
         }
     }
