@@ -94,3 +94,20 @@ fn view_says_it_was_built_without_the_viewer() {
     assert!(!run.status.success(), "whitted view succeeded without the viewer");
     assert!(err.contains("built without the viewer") && err.contains("--features viewer"), "{err}");
 }
+
+/// On every platform (aarch64 under qemu in CI included) the room is within one level
+/// per channel of the reference image rendered on x86-64 (which it matches exactly
+/// there). tests/render.rs allows more, for other compilers; this is the bound across
+/// this project's platforms.
+#[test]
+fn room_is_within_one_level_of_the_x86_64_reference() {
+    use whitted::prelude::*;
+    let room = whitted::scene::load_file(&manifest("scenes/room.toml")).unwrap();
+    let image = Renderer::new(&room).unwrap().size(200, 200).spp(4).render().to_rgb8();
+    let reference = image::open(manifest("tests/reference/room-200-spp4.png")).unwrap().to_rgb8();
+    assert_eq!(image.dimensions(), reference.dimensions());
+    let worst = image.as_raw().iter().zip(reference.as_raw()).map(|(a, b)| a.abs_diff(*b)).max().unwrap();
+    let off = image.pixels().zip(reference.pixels()).filter(|(a, b)| a != b).count();
+    assert!(worst <= 1, "the room differs from the reference by up to {worst} levels ({off} pixels differ)");
+    eprintln!("room vs the x86-64 reference: {off} pixels differ, by at most {worst} level");
+}
