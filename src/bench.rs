@@ -320,30 +320,16 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// CPU time (user + system) used so far by all threads of this process, in seconds.
 /// Rates per CPU-second stay comparable when other programs share the machine.
-#[allow(unsafe_code)]
+/// (`clock_gettime` on Unix, `GetProcessTimes` on Windows; 0 if the system cannot
+/// tell, which it always can on Linux, macOS and Windows.)
 pub fn process_cpu_seconds() -> f64 {
-    let mut usage = std::mem::MaybeUninit::<libc::rusage>::zeroed();
-    // SAFETY: getrusage writes a complete `rusage` into the pointer it is given, which
-    // points to a zeroed, properly aligned `rusage` that outlives the call; RUSAGE_SELF
-    // is a valid `who`. On failure (it cannot fail for RUSAGE_SELF) the zeroed value is
-    // read, which is a valid `rusage` of all zeros.
-    let usage = unsafe {
-        libc::getrusage(libc::RUSAGE_SELF, usage.as_mut_ptr());
-        usage.assume_init()
-    };
-    let secs = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    secs(usage.ru_utime) + secs(usage.ru_stime)
+    cpu_time::ProcessTime::try_now().map_or(0.0, |t| t.as_duration().as_secs_f64())
 }
 
-/// CPU time used so far by the calling thread, in seconds.
-#[allow(unsafe_code)]
+/// CPU time used so far by the calling thread, in seconds (`clock_gettime` on Unix,
+/// `GetThreadTimes` on Windows; 0 if the system cannot tell).
 fn thread_cpu_seconds() -> f64 {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: clock_gettime writes one `timespec` through the pointer, which points to
-    // an initialised, properly aligned local that outlives the call;
-    // CLOCK_THREAD_CPUTIME_ID is a valid clock on Linux. On failure `ts` keeps zeros.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+    cpu_time::ThreadTime::try_now().map_or(0.0, |t| t.as_duration().as_secs_f64())
 }
 
 /// Wall and CPU seconds of a timed case: wall is the median of the runs; CPU is the

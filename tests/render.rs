@@ -2,12 +2,13 @@
 //! counts, and an image regression test of the room against a committed reference.
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use whitted::prelude::*;
 use whitted::scene;
 
+mod common;
+
 fn whitted(args: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_whitted")).args(args).output().expect("run whitted");
+    let out = common::whitted_command().args(args).output().expect("run whitted");
     assert!(out.status.success(), "whitted {args:?} failed: {}", String::from_utf8_lossy(&out.stderr));
 }
 

@@ -8,19 +8,27 @@
 //! routines and break ties the same way (the lower index wins), so they produce
 //! identical images.
 
+// Where there is no AVX2 code (not x86-64), the eight-lane entry points take their
+// portable path, one ray at a time: their lane arguments and lane-only helpers go
+// unused there.
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables, unused_mut))]
+
 mod absorb;
 pub mod bvh;
+pub mod lanes;
 #[cfg(target_arch = "x86_64")]
 mod packet8;
-pub use packet8::Best8;
+pub use lanes::Best8;
 mod sphere4;
 mod tri4;
 pub mod wide;
 #[cfg(target_arch = "x86_64")]
 pub mod wide8;
+pub mod wide_bvh;
 
 pub use bvh::{Bvh, Node, Visit};
-pub use wide::{Bvh4, WideBvh};
+pub use wide::Bvh4;
+pub use wide_bvh::WideBvh;
 
 use crate::geometry::{Hit, Mesh, Shape, part};
 use crate::math::{Aabb, Ray, Vec2, Vec3};
@@ -408,7 +416,7 @@ pub struct World<'s> {
     /// Test objects one by one: no top-level tree, or a single object (one mesh), whose
     /// own tree's root box already does what the top level would.
     flat: bool,
-    /// Whether the processor has AVX2, for [`World::closest_among_each`].
+    /// Whether the eight-lane code runs ([`lanes::avx2`]), for [`World::closest_among_each`].
     avx2: bool,
 }
 
@@ -468,10 +476,7 @@ impl<'s> World<'s> {
         });
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
         let leaves = crate::pages::on_huge_pages(leaves);
-        #[cfg(target_arch = "x86_64")]
-        let avx2 = std::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let avx2 = false;
+        let avx2 = lanes::avx2();
         World { scene, kind, top4, leaves, meshes, transmission, absorbing, build_time: start.elapsed(), flat, avx2 }
     }
 
@@ -852,7 +857,7 @@ impl<'s> World<'s> {
     ) -> [f32; 8] {
         let mut light = [1.0f64; 8];
         for &i in ids {
-            let mut best = packet8::Best8::within(t_max);
+            let mut best = Best8::within(t_max);
             let mut blocked = 0u32;
             if let Some(mesh) = &self.meshes[i as usize] {
                 blocked = mesh.occluded_lanes(&ray, t_max, live);
@@ -877,7 +882,7 @@ impl<'s> World<'s> {
     /// bound in `best` keep it there. `false`, and nothing done, for other shapes.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn eight_lanes(&self, i: u32, rays: &packet8::Rays8, live: u32, best: &mut packet8::Best8) -> bool {
+    fn eight_lanes(&self, i: u32, rays: &packet8::Rays8, live: u32, best: &mut Best8) -> bool {
         match (&self.meshes[i as usize], &self.scene.objects[i as usize].shape) {
             (None, Shape::Quad(q)) => packet8::quad(q, rays, live, best, i),
             (None, Shape::Sphere(s)) => packet8::sphere(s, rays, live, best, i),
@@ -902,7 +907,7 @@ impl<'s> World<'s> {
     ) {
         let live = (1u32 << rays.len()) - 1;
         let wide = packet8::Rays8::new(rays);
-        let mut best = packet8::Best8::new();
+        let mut best = Best8::new();
         for &i in ids {
             if let Some(mesh) = &self.meshes[i as usize] {
                 let found = mesh.closest_lanes(|lane| rays[lane].0, best.t, live);

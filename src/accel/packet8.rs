@@ -12,73 +12,15 @@
 //! experiment that only added code elsewhere, they moved to another unit and were
 //! called out of line, each test a call with its rays and best hits read from memory.
 
-use crate::geometry::{Cone, Cylinder, Hit, Quad, Sphere, part};
-use crate::math::{Ray, Vec2};
+use super::lanes::Best8;
+use crate::geometry::{Cone, Cylinder, Quad, Sphere, part};
+use crate::math::Ray;
 use std::arch::x86_64::*;
 
 /// Eight rays, lane by lane.
 pub struct Rays8 {
     o: [__m256; 3],
     d: [__m256; 3],
-}
-
-/// Per lane, the nearest hit so far, field by field ([`Hit`]'s), and the object hit
-/// (`u32::MAX`: none yet). Its distance is the exclusive bound for the next object.
-pub struct Best8 {
-    pub t: [f32; 8],
-    pub u: [f32; 8],
-    pub v: [f32; 8],
-    part: [u8; 8],
-    prim: [u32; 8],
-    pub index: [u32; 8],
-    /// The object that took lanes last, and the lanes that hold it: [`Best8::one_object`]
-    /// without reading `index` back whole, just after it was written lane by lane.
-    owner: u32,
-    owned: u32,
-}
-
-impl Default for Best8 {
-    fn default() -> Self {
-        Best8::new()
-    }
-}
-
-impl Best8 {
-    pub fn new() -> Self {
-        let none = u32::MAX;
-        let (t, u, v) = ([f32::INFINITY; 8], [0.0; 8], [0.0; 8]);
-        Best8 { t, u, v, part: [0; 8], prim: [0; 8], index: [none; 8], owner: none, owned: 0 }
-    }
-
-    /// No hit yet, each lane's bound from `t`.
-    pub fn within(t: [f32; 8]) -> Self {
-        Best8 { t, ..Best8::new() }
-    }
-
-    pub fn set(&mut self, lane: usize, h: Hit, index: u32) {
-        (self.t[lane], self.u[lane], self.v[lane], self.part[lane], self.prim[lane]) =
-            (h.t, h.uv.x, h.uv.y, h.part, h.prim);
-        self.index[lane] = index;
-        // Objects are tested one after another, each once: lanes taken by one before
-        // this one hold other objects.
-        self.owned = if index == self.owner { self.owned | 1 << lane } else { 1 << lane };
-        self.owner = index;
-    }
-
-    /// The object all eight lanes hit, if one is.
-    pub fn one_object(&self) -> Option<u32> {
-        (self.owned == 0xff).then_some(self.owner)
-    }
-
-    /// The lanes that hold object `index`, if it was the last one to take any.
-    pub fn taken_by(&self, index: u32) -> u32 {
-        if self.owner == index { self.owned } else { 0 }
-    }
-
-    pub fn get(&self, lane: usize) -> (Hit, u32) {
-        let uv = Vec2::new(self.u[lane], self.v[lane]);
-        (Hit { t: self.t[lane], uv, part: self.part[lane], prim: self.prim[lane] }, self.index[lane])
-    }
 }
 
 impl Rays8 {
@@ -407,6 +349,7 @@ pub fn pointed_cone(cone: &Cone, r: &Rays8, live: u32, best: &mut Best8, index: 
 mod tests {
     use super::*;
     use crate::accel::tri4::tests::numbers;
+    use crate::geometry::Hit;
     use crate::math::Vec3;
 
     /// Eight rays from near `from`, some of them at `aim` (± a little), with bounds

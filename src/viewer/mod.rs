@@ -5,11 +5,12 @@
 //! changes, [`worker`] renders on its own thread and cancels stale work, [`reload`]
 //! watches the scene's files, [`overlay`] draws the picture and the text. [`Viewer`]
 //! ties them together behind a few calls that the window loop makes ([`window`]) and
-//! that tests make without one.
+//! that tests make without one. Only [`window`] needs the `viewer` cargo feature.
 
 pub mod overlay;
 pub mod reload;
 pub mod state;
+#[cfg(feature = "viewer")]
 pub mod window;
 pub mod worker;
 

@@ -6,7 +6,21 @@ use std::process::{Command, Output};
 
 /// Runs the `whitted` binary built for these tests.
 pub fn whitted(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_whitted")).args(args).output().expect("run whitted")
+    whitted_command().args(args).output().expect("run whitted")
+}
+
+/// The `whitted` binary built for these tests, as a command to add arguments to. Where
+/// the tests run under an emulator (CI's aarch64 tests under qemu), the environment
+/// variable `WHITTED_TEST_RUNNER` names it, with its arguments, and the binary runs
+/// under it too.
+pub fn whitted_command() -> Command {
+    let exe = env!("CARGO_BIN_EXE_whitted");
+    let runner = std::env::var("WHITTED_TEST_RUNNER").unwrap_or_default();
+    let mut words = runner.split_whitespace();
+    let Some(program) = words.next() else { return Command::new(exe) };
+    let mut cmd = Command::new(program);
+    cmd.args(words).arg(exe);
+    cmd
 }
 
 /// A path inside the repository.

@@ -247,6 +247,7 @@ fn load_scene(path: Option<&Path>, format: Option<Format>) -> Result<(Loaded, St
     }
 }
 
+#[cfg(feature = "viewer")]
 fn view(args: ViewArgs) -> Result<(), String> {
     whitted::viewer::window::run(whitted::viewer::Options {
         scene: args.scene,
@@ -254,6 +255,13 @@ fn view(args: ViewArgs) -> Result<(), String> {
         timing: args.timing || std::env::var_os("WHITTED_TIMING").is_some_and(|v| v == "1"),
         screenshot_dir: PathBuf::from("."),
     })
+}
+
+#[cfg(not(feature = "viewer"))]
+fn view(_: ViewArgs) -> Result<(), String> {
+    Err("this whitted was built without the viewer (cargo feature `viewer`, on by default): \
+         rebuild with `cargo build --release --features viewer`"
+        .to_owned())
 }
 
 fn render(args: RenderArgs) -> Result<(), String> {
