@@ -352,3 +352,24 @@ fn a_concave_polygon_covers_its_outline_and_not_its_notches() {
     }
     assert!(!lit(3.0, 0.0) && !lit(0.0, 3.0));
 }
+
+/// A polygon of a million vertices on a circle: its fan's thinnest triangles are within
+/// rounding of no area and are left out, and the file's reader says so.
+#[test]
+fn a_polygon_partly_left_uncovered_is_reported() {
+    let tmp = tempfile::tempdir().unwrap();
+    let n = 999_999;
+    let mut text = String::from(
+        "v\nfrom 0 0 5\nat 0 0 0\nup 0 1 0\nangle 40\nhither 0.01\nresolution 8 8\nl 0 0 5\nf 1 1 1 1 0 1 0 1\n",
+    );
+    text += &format!("p {n}\n");
+    for i in 0..n {
+        let a = std::f64::consts::TAU * i as f64 / n as f64;
+        text += &format!("{:.7} {:.7} 0\n", a.cos(), a.sin());
+    }
+    let nff = write(tmp.path(), "circle.nff", &text);
+    let out = whitted(&["render", nff.to_str().unwrap(), "-o", tmp.path().join("c.png").to_str().unwrap()]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("1 polygon partly uncovered (slivers of too little area left out)"), "{stderr}");
+}

@@ -366,6 +366,8 @@ struct Parser<'a, R> {
     points: Vec<Vec3>,
     normals: Vec<Vec3>,
     zero_area: Tally,
+    /// Polygons some of whose triangles had (nearly) no area and were left out.
+    thin: Tally,
     zero_size: Tally,
     crossing: Tally,
     shares: Tally,
@@ -394,6 +396,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
             points: Vec::new(),
             normals: Vec::new(),
             zero_area: Tally::default(),
+            thin: Tally::default(),
             zero_size: Tally::default(),
             crossing: Tally::default(),
             shares: Tally::default(),
@@ -734,6 +737,25 @@ impl<'a, R: BufRead> Parser<'a, R> {
             self.zero_area.add(e.line);
             return Ok(());
         }
+        // Triangles left out as (nearly) flat: harmless for collinear corners, but the
+        // slivers of a huge polygon leave part of it uncovered. Say so where the
+        // triangles cover less than the outline does (Newell's area, in f64).
+        if mesh.triangles.len() - before < self.points.len() - 2 {
+            let p = |i: usize| self.points[i].as_dvec3();
+            let n = self.points.len();
+            let outline = (0..n).fold(glam::DVec3::ZERO, |a, i| a + p(i).cross(p((i + 1) % n))).length() / 2.0;
+            let base = mesh.positions.len() as u32;
+            let covered: f64 = mesh.triangles[before..]
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|i| p((i - base) as usize));
+                    (b - a).cross(c - a).length() / 2.0
+                })
+                .sum();
+            if covered < outline * (1.0 - 1e-4) {
+                self.thin.add(e.line);
+            }
+        }
         mesh.positions.extend_from_slice(&self.points);
         mesh.normals.extend_from_slice(&self.normals);
         self.counts.triangles += mesh.triangles.len() - before;
@@ -771,6 +793,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
             }
         };
         warn(&self.zero_area, "zero-area polygon skipped");
+        warn(&self.thin, "polygon partly uncovered (slivers of too little area left out)");
         warn(&self.zero_size, "zero-size sphere or cone skipped");
         warn(&self.crossing, "self-crossing or very large concave polygon fanned");
         warn(&self.shares, "material with Ks + T > 1 (scaled to sum to 1) or no room for Kd");
