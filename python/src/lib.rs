@@ -292,7 +292,7 @@ fn material(m: &Bound<'_, PyTuple>) -> PyResult<Material> {
             }
         }
     };
-    Ok(Material { texture, diffuse, specular, shininess, reflectivity, transparency, ior })
+    Ok(Material { texture, diffuse, specular, shininess, reflectivity, transparency, ior, ..Material::default() })
 }
 
 /// `("mesh", material, positions (N, 3) float32, triangles (M, 3) uint32, normals or None, smooth)`
