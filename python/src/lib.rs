@@ -343,6 +343,10 @@ fn from_numpy(array: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
 fn write_png_array(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, path: &str) -> PyResult<()> {
     let image = from_numpy(&image)?;
     let path = Path::new(path);
+    // The command line picks the format by extension; this function is named for one.
+    if !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png")) {
+        return Err(PyValueError::new_err(format!("{}: write_png writes only PNG files (.png)", path.display())));
+    }
     py.detach(|| write_png(&image, path)).map_err(|e| match e {
         OutputError::Io { .. } => PyOSError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
