@@ -14,6 +14,8 @@
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables, unused_mut))]
 
 mod absorb;
+mod eight_rays;
+mod shadow;
 pub mod bvh;
 pub mod lanes;
 #[cfg(target_arch = "x86_64")]
@@ -381,6 +383,39 @@ const CONE_MAX_SEEN: usize = 6;
 /// No object: the index of the best hit before there is one.
 const NONE: u32 = u32::MAX;
 
+/// The nearest hit so far and its object ([`NONE`] before any), field by field.
+#[derive(Clone, Copy)]
+struct Nearest {
+    t: f32,
+    uv: Vec2,
+    part: u8,
+    prim: u32,
+    index: u32,
+}
+
+impl Default for Nearest {
+    fn default() -> Self {
+        Nearest { t: 0.0, uv: Vec2::ZERO, part: 0, prim: 0, index: NONE }
+    }
+}
+
+impl Nearest {
+    /// Keeps hit `h` on object `i` if it is nearer, or as near with a lower index.
+    #[inline(always)]
+    fn offer(&mut self, h: Hit, i: u32) -> bool {
+        let better = self.index == NONE || h.t < self.t || (h.t == self.t && i < self.index);
+        if better {
+            (self.t, self.uv, self.part, self.prim, self.index) = (h.t, h.uv, h.part, h.prim, i);
+        }
+        better
+    }
+
+    #[inline(always)]
+    fn get(self) -> Option<(Hit, u32)> {
+        (self.index != NONE).then_some((Hit { t: self.t, uv: self.uv, part: self.part, prim: self.prim }, self.index))
+    }
+}
+
 fn wide(bvh: &Bvh, width: Option<usize>) -> WideBvh {
     match width {
         Some(w) => WideBvh::with_width(bvh, w),
@@ -502,14 +537,14 @@ impl<'s> World<'s> {
 
     /// Leaf entries whose boxes the ray enters, nearest first when `NEAREST_FIRST`
     /// (else in node order, which saves sorting when every hit counts);
-    /// `test(entry, t_max)` as in [`Bvh::traverse`].
+    /// `test(index of the entry in `leaves`, t_max)` as in [`Bvh::traverse`].
     #[inline]
     fn traverse_objects<const NEAREST_FIRST: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
-        mut test: impl FnMut(&LeafItem, f32) -> Visit,
+        mut test: impl FnMut(usize, f32) -> Visit,
     ) {
         // A ray from an overflowed point or in a direction of NaNs meets nothing (and
         // its box tests would not say so).
@@ -517,8 +552,8 @@ impl<'s> World<'s> {
             return;
         }
         let leaf = |range: std::ops::Range<usize>, mut t_cur: f32| {
-            for i in &self.leaves[range] {
-                match test(i, t_cur) {
+            for at in range {
+                match test(at, t_cur) {
                     Visit::Continue(t) => t_cur = t,
                     Visit::Stop => return Visit::Stop,
                 }
@@ -548,47 +583,51 @@ impl<'s> World<'s> {
     /// The nearest hit in `(t_min, t_max)` and the index of the object hit.
     #[inline]
     pub fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
-        let mut best: Option<(Hit, u32)> = None;
         if self.flat {
-            best = self.closest_of(0..self.scene.objects.len() as u32, ray, t_min, t_max);
-        } else {
+            return self.closest_of(0..self.scene.objects.len() as u32, ray, t_min, t_max);
+        }
+        {
             let r4 = Ray4::new(ray);
             // The best hit so far field by field, not as an `Option<(Hit, u32)>`: written
             // piecewise and read back whole, the option stalled store forwarding (a
             // quarter of this function's time in the room).
-            let (mut t_best, mut uv, mut hit_part, mut prim, mut index) = (0.0f32, Vec2::ZERO, 0u8, 0u32, NONE);
-            self.traverse_objects::<true>(ray, t_min, t_max, |item, mut t_cur| {
-                // Once something is hit the bound is inclusive, so an object at exactly
-                // the same distance with a lower index wins, as in the brute-force loop.
-                let limit = if index != NONE { t_cur.next_up() } else { t_cur };
-                let mut offer = |h: Hit, i: u32| {
-                    if index == NONE || h.t < t_best || (h.t == t_best && i < index) {
-                        t_cur = h.t;
-                        (t_best, uv, hit_part, prim, index) = (h.t, h.uv, h.part, h.prim, i);
-                    }
-                };
-                match *item {
-                    LeafItem::Spheres(ref pack) => {
-                        let (mut mask, t) = pack.intersect(&r4, t_min, limit);
-                        while mask != 0 {
-                            let lane = mask.trailing_zeros() as usize;
-                            mask &= mask - 1;
-                            offer(Hit { t: t[lane], uv: Vec2::ZERO, part: part::SIDE, prim: 0 }, pack.ids[lane]);
-                        }
-                    }
-                    LeafItem::Other(i) => {
-                        if let Some(h) = self.intersect_object(i as usize, ray, t_min, limit) {
-                            offer(h, i);
-                        }
-                    }
-                }
-                Visit::Continue(t_cur)
+            let mut nearest = Nearest::default();
+            self.traverse_objects::<true>(ray, t_min, t_max, |at, t_cur| {
+                Visit::Continue(self.leaf_nearest(at, &r4, ray, t_min, t_cur, &mut nearest))
             });
-            if index != NONE {
-                best = Some((Hit { t: t_best, uv, part: hit_part, prim }, index));
+            nearest.get()
+        }
+    }
+
+    /// The objects of leaf entry `at` against the ray, within `(t_min, t_cur)`, kept in
+    /// `nearest` if nearer (ties to the lower index); returns the new bound. The answer
+    /// does not depend on the order entries come in.
+    #[inline(always)]
+    fn leaf_nearest(&self, at: usize, r4: &Ray4, ray: &Ray, t_min: f32, mut t_cur: f32, nearest: &mut Nearest) -> f32 {
+        // Once something is hit the bound is inclusive, so an object at exactly
+        // the same distance with a lower index wins, as in the brute-force loop.
+        let limit = if nearest.index != NONE { t_cur.next_up() } else { t_cur };
+        let mut offer = |h: Hit, i: u32| {
+            if nearest.offer(h, i) {
+                t_cur = h.t;
+            }
+        };
+        match self.leaves[at] {
+            LeafItem::Spheres(ref pack) => {
+                let (mut mask, t) = pack.intersect(r4, t_min, limit);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    offer(Hit { t: t[lane], uv: Vec2::ZERO, part: part::SIDE, prim: 0 }, pack.ids[lane]);
+                }
+            }
+            LeafItem::Other(i) => {
+                if let Some(h) = self.intersect_object(i as usize, ray, t_min, limit) {
+                    offer(h, i);
+                }
             }
         }
-        best
+        t_cur
     }
 
     /// Whether groups of rays may be tested against only the objects they may meet
@@ -973,88 +1012,6 @@ impl<'s> World<'s> {
             *out = mesh.closest(ray, t_min, t_max).map(|h| (h, 0));
         }
     }
-
-    /// [`World::transmittance`] for each shadow ray and length of `rays`, into `out` (as
-    /// long): in a world of one mesh, eight at a time, as one packet where
-    /// [`MeshBvh::occluded_eight`] takes them ([`wide8::Bvh8::any_packet`]), the others
-    /// three walks at a time, interleaved ([`wide8::Bvh8::any_hits`]); elsewhere one ray
-    /// after another.
-    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
-        let [Some(mesh)] = &self.meshes[..] else {
-            for ((ray, t), light) in rays.iter().zip(out) {
-                *light = self.transmittance(ray, *t);
-            }
-            return;
-        };
-        // As `transmittance` finds it: the mesh's transmission if it lies across the ray.
-        let light = |blocked: bool| if blocked { (1.0f64 * self.transmission[0] as f64) as f32 } else { 1.0 };
-        // Rays the packets do not take wait in `left` to walk three at a time.
-        let (mut left, mut n) = ([0usize; 3], 0);
-        for (start, g) in rays.chunks(8).enumerate().map(|(i, g)| (8 * i, g)) {
-            if let Ok(g) = <&[(Ray, f32); 8]>::try_from(g)
-                && let Some(blocked) = mesh.occluded_packet(&g.map(|(r, _)| r), g.map(|(_, t)| t), 0xff)
-            {
-                for (k, light_k) in out[start..start + 8].iter_mut().enumerate() {
-                    *light_k = light(blocked >> k & 1 != 0);
-                }
-                continue;
-            }
-            for i in start..start + g.len() {
-                (left[n], n) = (i, n + 1);
-                if n == 3 {
-                    let [a, b, c] = left.map(|i| &rays[i]);
-                    let blocked = mesh.occluded_each([&a.0, &b.0, &c.0], [a.1, b.1, c.1]);
-                    for (i, blocked) in left.into_iter().zip(blocked) {
-                        out[i] = light(blocked);
-                    }
-                    n = 0;
-                }
-            }
-        }
-        for &i in &left[..n] {
-            out[i] = light(mesh.occluded(&rays[i].0, 0.0, rays[i].1));
-        }
-    }
-
-    /// The share of light that travels from `ray.origin` a distance `t_max` along the
-    /// ray: the product of the transmission of every object in the way, each counted
-    /// once however many of its surfaces the segment crosses (two overlapping 70 %
-    /// spheres pass 0.49). Stops at the first opaque object. The product is kept in
-    /// f64 so that the order objects are met in does not change the f32 result.
-    #[inline]
-    pub fn transmittance(&self, ray: &Ray, t_max: f32) -> f32 {
-        if self.flat {
-            return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
-        }
-        let mut light = 1.0f64;
-        let r4 = Ray4::new(ray);
-        self.traverse_objects::<false>(ray, 0.0, t_max, |item, _| {
-            let mut pass = |i: u32| {
-                light *= self.transmission[i as usize] as f64;
-                light != 0.0
-            };
-            match *item {
-                LeafItem::Spheres(ref pack) => {
-                    let mut blocked = pack.intersect(&r4, 0.0, t_max).0;
-                    while blocked != 0 {
-                        let lane = blocked.trailing_zeros() as usize;
-                        blocked &= blocked - 1;
-                        if !pass(pack.ids[lane]) {
-                            return Visit::Stop;
-                        }
-                    }
-                }
-                LeafItem::Other(i) => {
-                    if self.blocks(i as usize, ray, t_max) && !pass(i) {
-                        return Visit::Stop;
-                    }
-                }
-            }
-            // Every object along the whole segment counts, not just the nearest.
-            Visit::Continue(t_max)
-        });
-        light as f32
-    }
 }
 
 #[cfg(test)]
@@ -1372,6 +1329,21 @@ mod tests {
             assert_eq!(a, b, "ray {i}: {ray:?}");
             let t_max = 5.0 + 20.0 * r.next_f32();
             assert_eq!(bvh.transmittance(&ray, t_max), brute.transmittance(&ray, t_max), "ray {i}");
+        }
+        // Rays eight at a time: from one eye over a grid (packets), and scattered.
+        let eye = v(r, 30.0);
+        let mut found: Vec<(Ray, Option<(Hit, u32)>)> = (0..64 * 64)
+            .map(|i| {
+                let d = -eye + Vec3::new((i % 64) as f32 * 0.6 - 19.0, (i / 64) as f32 * 0.6 - 19.0, 0.0);
+                (Ray::new(eye, d), None)
+            })
+            .chain((0..1000).map(|_| (Ray::new(v(r, 30.0), unit(r)), None)))
+            .collect();
+        bvh.closest_found(&mut found);
+        let hits = found.iter().filter(|(_, h)| h.is_some()).count();
+        assert!(hits > 500 && hits + 500 < found.len(), "{hits} of {} hit", found.len());
+        for (i, (ray, hit)) in found.iter().enumerate() {
+            assert_eq!(*hit, brute.closest(ray, 0.0, f32::INFINITY), "ray {i} of eight at a time");
         }
     }
 

@@ -148,11 +148,11 @@ impl Wave {
                 let seen = towards_light_lanes(light, from, normal);
                 let mut live = 0u32;
                 let mut falloff = [0f32; 8];
-                for lane in 0..nodes.len() {
+                for (lane, falloff) in falloff.iter_mut().enumerate().take(nodes.len()) {
                     if seen.n_dot_l[lane] > 0.0 {
-                        falloff[lane] = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
+                        *falloff = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
                     }
-                    live |= ((falloff[lane] > 0.0) as u32) << lane;
+                    live |= ((*falloff > 0.0) as u32) << lane;
                 }
                 let visible = visible_lanes(world, blockers, from, &seen, live);
                 for (lane, &k) in nodes.iter().enumerate() {
@@ -238,9 +238,7 @@ fn find_hits(world: &World, rays: &mut [Found], seen: &mut Vec<u32>) {
     if rays.len() >= 4 && world.seen_along(rays, seen) {
         world.closest_among_each(seen, rays);
     } else {
-        for (ray, hit) in rays {
-            *hit = world.closest(ray, 0.0, f32::INFINITY);
-        }
+        world.closest_found(rays);
     }
 }
 

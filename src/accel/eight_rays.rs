@@ -1,0 +1,51 @@
+//! Rays through the object tree eight at a time: where neighbouring rays (a tile's
+//! camera rays) head into one octant they go down the eight-wide tree as one packet
+//! ([`super::wide8::Bvh8::nearest_packet`]), one node visit serving all eight.
+
+use super::tri4::Ray4;
+#[cfg(target_arch = "x86_64")]
+use super::{Nearest, WideBvh};
+use super::World;
+use crate::geometry::Hit;
+use crate::math::Ray;
+
+impl World<'_> {
+    /// [`World::closest`] (from 0, without bound) for each ray of `found`, its answer
+    /// written beside it: the same answers, eight at a time where they make a packet.
+    pub fn closest_found(&self, found: &mut [(Ray, Option<(Hit, u32)>)]) {
+        for group in found.chunks_mut(8) {
+            if let Ok(group) = <&mut [_; 8]>::try_from(&mut *group)
+                && self.closest_packet(group)
+            {
+                continue;
+            }
+            for (ray, hit) in group {
+                *hit = self.closest(ray, 0.0, f32::INFINITY);
+            }
+        }
+    }
+
+    /// Eight rays as one packet, if the tree and their directions allow it.
+    #[inline]
+    fn closest_packet(&self, group: &mut [(Ray, Option<(Hit, u32)>); 8]) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if let WideBvh::Eight(tree) = &self.top4
+            && !self.flat
+            && group.iter().all(|(r, _)| r.origin.is_finite() && r.dir.is_finite())
+        {
+            let rays = group.each_ref().map(|(r, _)| r);
+            let r4 = rays.map(Ray4::new);
+            let mut nearest = [Nearest::default(); 8];
+            let packed = tree.nearest_packet(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |k, range, t_cur| {
+                range.fold(t_cur, |t, at| self.leaf_nearest(at, &r4[k], rays[k], 0.0, t, &mut nearest[k]))
+            });
+            if packed {
+                for ((_, hit), nearest) in group.iter_mut().zip(nearest) {
+                    *hit = nearest.get();
+                }
+            }
+            return packed;
+        }
+        false
+    }
+}

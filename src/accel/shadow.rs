@@ -1,0 +1,108 @@
+//! Shadow rays: how much light gets through along a segment, one ray at a time or in
+//! batches.
+
+use super::tri4::Ray4;
+use super::{LeafItem, Visit, World};
+use crate::math::Ray;
+
+impl World<'_> {
+    /// [`World::transmittance`] for each shadow ray and length of `rays`, into `out` (as
+    /// long): in a world of one mesh, eight at a time, as one packet where
+    /// [`super::MeshBvh::occluded_eight`] takes them ([`super::wide8::Bvh8::any_packet`]),
+    /// the others three walks at a time, interleaved ([`super::wide8::Bvh8::any_hits`]);
+    /// elsewhere one ray after another. (In a world of objects, neither packets, nor
+    /// interleaved walks, nor testing first the object that blocked the last ray paid:
+    /// the sphereflake took as long, docs/performance.md.)
+    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
+        match &self.meshes[..] {
+            [Some(_)] => self.mesh_transmittance_each(rays, out),
+            _ => {
+                for ((ray, t), light) in rays.iter().zip(out) {
+                    *light = self.transmittance(ray, *t);
+                }
+            }
+        }
+    }
+
+    fn mesh_transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
+        let [Some(mesh)] = &self.meshes[..] else { unreachable!("a world of one mesh") };
+        // As `transmittance` finds it: the mesh's transmission if it lies across the ray.
+        let light = |blocked: bool| if blocked { (1.0f64 * self.transmission[0] as f64) as f32 } else { 1.0 };
+        // Rays the packets do not take wait in `left` to walk three at a time.
+        let (mut left, mut n) = ([0usize; 3], 0);
+        for (start, g) in rays.chunks(8).enumerate().map(|(i, g)| (8 * i, g)) {
+            if let Ok(g) = <&[(Ray, f32); 8]>::try_from(g)
+                && let Some(blocked) = mesh.occluded_packet(&g.map(|(r, _)| r), g.map(|(_, t)| t), 0xff)
+            {
+                for (k, light_k) in out[start..start + 8].iter_mut().enumerate() {
+                    *light_k = light(blocked >> k & 1 != 0);
+                }
+                continue;
+            }
+            for i in start..start + g.len() {
+                (left[n], n) = (i, n + 1);
+                if n == 3 {
+                    let [a, b, c] = left.map(|i| &rays[i]);
+                    let blocked = mesh.occluded_each([&a.0, &b.0, &c.0], [a.1, b.1, c.1]);
+                    for (i, blocked) in left.into_iter().zip(blocked) {
+                        out[i] = light(blocked);
+                    }
+                    n = 0;
+                }
+            }
+        }
+        for &i in &left[..n] {
+            out[i] = light(mesh.occluded(&rays[i].0, 0.0, rays[i].1));
+        }
+    }
+
+    /// The share of light that travels from `ray.origin` a distance `t_max` along the
+    /// ray: the product of the transmission of every object in the way, each counted
+    /// once however many of its surfaces the segment crosses (two overlapping 70 %
+    /// spheres pass 0.49). Stops at the first opaque object. The product is kept in
+    /// f64 so that the order objects are met in does not change the f32 result.
+    #[inline]
+    pub fn transmittance(&self, ray: &Ray, t_max: f32) -> f32 {
+        if self.flat {
+            return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
+        }
+        let mut light = 1.0f64;
+        let r4 = Ray4::new(ray);
+        self.traverse_objects::<false>(ray, 0.0, t_max, |at, _| {
+            if self.leaf_stops(at, &r4, ray, t_max, &mut light) {
+                return Visit::Stop;
+            }
+            // Every object along the whole segment counts, not just the nearest.
+            Visit::Continue(t_max)
+        });
+        light as f32
+    }
+
+    /// Multiplies into `light` the transmission of the objects of leaf entry `at` that
+    /// lie across the segment; `true` once the light is gone.
+    #[inline(always)]
+    fn leaf_stops(&self, at: usize, r4: &Ray4, ray: &Ray, t_max: f32, light: &mut f64) -> bool {
+        match self.leaves[at] {
+            LeafItem::Spheres(ref pack) => {
+                let mut blocked = pack.intersect(r4, 0.0, t_max).0;
+                while blocked != 0 {
+                    let lane = blocked.trailing_zeros() as usize;
+                    blocked &= blocked - 1;
+                    *light *= self.transmission[pack.ids[lane] as usize] as f64;
+                    if *light == 0.0 {
+                        return true;
+                    }
+                }
+            }
+            LeafItem::Other(i) => {
+                if self.blocks(i as usize, ray, t_max) {
+                    *light *= self.transmission[i as usize] as f64;
+                    if *light == 0.0 {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
