@@ -330,7 +330,7 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
                 Some(i) => i.into_u32().collect(),
                 None => (0..count as u32).collect(),
             };
-            if indices.len() % 3 != 0 {
+            if !indices.len().is_multiple_of(3) {
                 return Err((self.fail)(format!(
                     "{part}.indices: {} indices is not a whole number of triangles",
                     indices.len()
