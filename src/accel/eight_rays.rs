@@ -2,10 +2,11 @@
 //! camera rays) head into one octant they go down the eight-wide tree as one packet
 //! ([`super::wide8::Bvh8::nearest_packet`]), one node visit serving all eight.
 
+use super::World;
+#[cfg(target_arch = "x86_64")]
 use super::tri4::Ray4;
 #[cfg(target_arch = "x86_64")]
 use super::{Nearest, WideBvh};
-use super::World;
 use crate::geometry::Hit;
 use crate::math::Ray;
 
@@ -47,5 +48,32 @@ impl World<'_> {
             return packed;
         }
         false
+    }
+
+    /// [`World::closest`] for each of `rays`, into `out` (as long): in a world of one
+    /// mesh, eight at a time, as one packet where they head into one octant
+    /// ([`wide8::Bvh8::nearest_packet`]), else two walks at a time, interleaved
+    /// ([`wide8::Bvh8::nearest_hits`]); elsewhere one ray after another.
+    pub fn closest_each(&self, rays: &[Ray], t_min: f32, t_max: f32, out: &mut [Option<(Hit, u32)>]) {
+        let [Some(mesh)] = &self.meshes[..] else {
+            for (ray, hit) in rays.iter().zip(out) {
+                *hit = self.closest(ray, t_min, t_max);
+            }
+            return;
+        };
+        let (mut eights, mut hits8) = (rays.chunks_exact(8), out.chunks_exact_mut(8));
+        for (g, out) in (&mut eights).zip(&mut hits8) {
+            let found = mesh.closest_eight(g.try_into().expect("eight rays"), t_min, [t_max; 8], 0xff);
+            out.copy_from_slice(&found.map(|h| h.map(|h| (h, 0))));
+        }
+        let (rays, out) = (eights.remainder(), hits8.into_remainder());
+        let (mut groups, mut hits) = (rays.chunks_exact(2), out.chunks_exact_mut(2));
+        for (g, out) in (&mut groups).zip(&mut hits) {
+            let found = mesh.closest_each([&g[0], &g[1]], t_min, [t_max; 2]);
+            out.copy_from_slice(&found.map(|h| h.map(|h| (h, 0))));
+        }
+        for (ray, out) in groups.remainder().iter().zip(hits.into_remainder()) {
+            *out = mesh.closest(ray, t_min, t_max).map(|h| (h, 0));
+        }
     }
 }
