@@ -303,7 +303,7 @@ impl World<'_> {
         for &i in ids {
             let mut best = Best8::within(t_max);
             let mut blocked = 0u32;
-            if let Some(mesh) = &self.meshes[i as usize] {
+            if let Some(mesh) = self.plain_mesh(i as usize) {
                 blocked = mesh.occluded_lanes(&ray, t_max, live);
             } else if !self.eight_lanes(i, wide, live, &mut best) {
                 for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
@@ -353,7 +353,7 @@ impl World<'_> {
         let wide = packet8::Rays8::new(rays);
         let mut best = Best8::new();
         for &i in ids {
-            if let Some(mesh) = &self.meshes[i as usize] {
+            if let Some(mesh) = self.plain_mesh(i as usize) {
                 let found = mesh.closest_lanes(|lane| rays[lane].0, best.t, live);
                 for (lane, h) in found.into_iter().enumerate() {
                     if let Some(h) = h {

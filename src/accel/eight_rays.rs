@@ -55,7 +55,7 @@ impl World<'_> {
     /// ([`wide8::Bvh8::nearest_packet`]), else two walks at a time, interleaved
     /// ([`wide8::Bvh8::nearest_hits`]); elsewhere one ray after another.
     pub fn closest_each(&self, rays: &[Ray], t_min: f32, t_max: f32, out: &mut [Option<(Hit, u32)>]) {
-        let [Some(mesh)] = &self.meshes[..] else {
+        let Some(mesh) = self.single_mesh() else {
             for (ray, hit) in rays.iter().zip(out) {
                 *hit = self.closest(ray, t_min, t_max);
             }

@@ -34,11 +34,13 @@ pub use bvh::{Bvh, Node, Visit};
 pub use wide::Bvh4;
 pub use wide_bvh::WideBvh;
 
-use crate::geometry::{Hit, Shape, part};
+use crate::geometry::{Hit, Mesh, Shape, part};
 use crate::math::{Ray, Vec2};
 use crate::scene::Scene;
 use mesh_bvh::MeshBvh;
 use sphere4::Sphere4;
+use std::collections::HashMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 use tri4::Ray4;
 
@@ -130,8 +132,9 @@ pub struct World<'s> {
     /// Over objects; empty with `AccelKind::None`. Leaf positions index `leaves`.
     top4: WideBvh,
     leaves: Vec<LeafItem>,
-    /// Per object: the BVH of a mesh object (with `AccelKind::Bvh`).
-    meshes: Vec<Option<MeshBvh>>,
+    /// Per object: the BVH of a mesh object or instance (with `AccelKind::Bvh`), one
+    /// per mesh, shared by its instances.
+    meshes: Vec<Option<Arc<MeshBvh>>>,
     /// Per object, the share of light its material lets through (0 = opaque), looked
     /// up once here rather than through the material on every shadow ray.
     transmission: Vec<f32>,
@@ -163,14 +166,23 @@ impl<'s> World<'s> {
             AccelKind::Bvh => {
                 use rayon::prelude::*;
                 let bounds: Vec<_> = scene.objects.iter().map(|o| o.shape.bounds()).collect();
-                let meshes = scene
-                    .objects
-                    .par_iter()
-                    .map(|o| match &o.shape {
-                        Shape::Mesh(m) => Some(MeshBvh::build(m, width)),
-                        _ => None,
-                    })
-                    .collect();
+                // One tree per mesh, shared by the objects that place it (instances).
+                let mesh_of = |o: &crate::scene::Object| match &o.shape {
+                    Shape::Mesh(m) => Some(m.clone()),
+                    Shape::Transformed(t) => t.mesh().cloned(),
+                    _ => None,
+                };
+                let mut unique: Vec<Arc<Mesh>> = Vec::new();
+                let mut index = HashMap::new();
+                for m in scene.objects.iter().filter_map(mesh_of) {
+                    index.entry(Arc::as_ptr(&m)).or_insert_with(|| {
+                        unique.push(m.clone());
+                        unique.len() - 1
+                    });
+                }
+                let trees: Vec<Arc<MeshBvh>> = unique.par_iter().map(|m| Arc::new(MeshBvh::build(m, width))).collect();
+                let meshes =
+                    scene.objects.iter().map(|o| mesh_of(o).map(|m| trees[index[&Arc::as_ptr(&m)]].clone())).collect();
                 // Leaves test spheres four at a time, so in a scene of (nearly) only
                 // spheres the tree is costed like a mesh's, by packs; elsewhere objects
                 // differ too much in cost for packs to be the unit.
@@ -222,7 +234,33 @@ impl<'s> World<'s> {
     pub fn memory_bytes(&self) -> usize {
         self.leaves.capacity() * std::mem::size_of::<LeafItem>()
             + self.top4.memory_bytes()
-            + self.meshes.iter().flatten().map(MeshBvh::memory_bytes).sum::<usize>()
+            + self.unique_meshes().map(|m| m.memory_bytes()).sum::<usize>()
+    }
+
+    /// Each mesh tree once, however many objects share it.
+    fn unique_meshes(&self) -> impl Iterator<Item = &MeshBvh> {
+        let mut seen = std::collections::HashSet::new();
+        self.meshes.iter().flatten().filter(move |m| seen.insert(Arc::as_ptr(m))).map(|m| &**m)
+    }
+
+    /// The tree of object `i` if it is a mesh in place (not an instance, whose rays need
+    /// carrying into its space): for the paths that ask a mesh's tree directly.
+    #[inline]
+    fn plain_mesh(&self, i: usize) -> Option<&MeshBvh> {
+        match (&self.meshes[i], &self.scene.objects[i].shape) {
+            (Some(m), Shape::Mesh(_)) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// The tree of the only object, a mesh in place: worlds of one mesh have their own
+    /// batched paths.
+    #[inline]
+    fn single_mesh(&self) -> Option<&MeshBvh> {
+        match self.meshes.len() {
+            1 => self.plain_mesh(0),
+            _ => None,
+        }
     }
 
     /// Leaf entries whose boxes the ray enters, nearest first when `NEAREST_FIRST`
@@ -255,15 +293,17 @@ impl<'s> World<'s> {
 
     #[inline]
     fn intersect_object(&self, i: usize, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        match &self.meshes[i] {
-            Some(m) => m.closest(ray, t_min, t_max),
-            None => self.scene.objects[i].shape.intersect(ray, t_min, t_max),
+        match (&self.meshes[i], &self.scene.objects[i].shape) {
+            (Some(m), Shape::Transformed(t)) => t.intersect_with(ray, t_min, t_max, |r, a, b| m.closest(r, a, b)),
+            (Some(m), _) => m.closest(ray, t_min, t_max),
+            (None, s) => s.intersect(ray, t_min, t_max),
         }
     }
 
     #[inline]
     fn blocks(&self, i: usize, ray: &Ray, t_max: f32) -> bool {
         match (&self.meshes[i], &self.scene.objects[i].shape) {
+            (Some(m), Shape::Transformed(t)) => t.blocks_with(ray, t_max, |r, t_max| m.occluded(r, 0.0, t_max)),
             (Some(m), _) => m.occluded(ray, 0.0, t_max),
             (None, Shape::Mesh(m)) => m.occluded(ray, 0.0, t_max),
             (None, s) => s.intersect(ray, 0.0, t_max).is_some(),

@@ -14,8 +14,8 @@ impl World<'_> {
     /// interleaved walks, nor testing first the object that blocked the last ray paid:
     /// the sphereflake took as long, docs/performance.md.)
     pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
-        match &self.meshes[..] {
-            [Some(_)] => self.mesh_transmittance_each(rays, out),
+        match self.single_mesh() {
+            Some(_) => self.mesh_transmittance_each(rays, out),
             _ => {
                 for ((ray, t), light) in rays.iter().zip(out) {
                     *light = self.transmittance(ray, *t);
@@ -25,7 +25,7 @@ impl World<'_> {
     }
 
     fn mesh_transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
-        let [Some(mesh)] = &self.meshes[..] else { unreachable!("a world of one mesh") };
+        let Some(mesh) = self.single_mesh() else { unreachable!("a world of one mesh") };
         // As `transmittance` finds it: the mesh's transmission if it lies across the ray.
         let light = |blocked: bool| if blocked { (1.0f64 * self.transmission[0] as f64) as f32 } else { 1.0 };
         // Rays the packets do not take wait in `left` to walk three at a time.

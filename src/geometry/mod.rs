@@ -23,7 +23,7 @@ pub use mesh::{Mesh, MeshError, intersect_triangle};
 pub use polygon::{Polygon, PolygonError};
 pub use quad::Quad;
 pub use sphere::Sphere;
-pub use transformed::{Transformed, affine, apply as transform};
+pub use transformed::{Transformed, affine, apply as transform, instance};
 pub use triangle::Triangle;
 
 use crate::math::{Aabb, Ray, Vec2, Vec3};

@@ -73,6 +73,13 @@ pub fn apply(shape: Shape, m: &Affine3A) -> Result<Shape, PolygonError> {
     })
 }
 
+/// Mesh `mesh` placed again by `m`, its triangles shared rather than copied: the
+/// acceleration structure keeps one tree per mesh, and rays are carried into the mesh's
+/// own space, so a thousand instances cost a thousand transforms, not a thousand meshes.
+pub fn instance(mesh: &std::sync::Arc<super::Mesh>, m: &Affine3A) -> Shape {
+    Shape::Transformed(Box::new(Transformed::new(Shape::Mesh(mesh.clone()), *m)))
+}
+
 impl Transformed {
     fn new(shape: Shape, to_world: Affine3A) -> Self {
         let to_object = to_world.inverse();
@@ -98,8 +105,37 @@ impl Transformed {
     }
 
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.intersect_with(ray, t_min, t_max, |r, t_min, t_max| self.shape.intersect(r, t_min, t_max))
+    }
+
+    /// The shape placed here when it is a mesh (an instance), for the acceleration
+    /// structure to find the mesh's own tree.
+    pub fn mesh(&self) -> Option<&std::sync::Arc<super::Mesh>> {
+        match &self.shape {
+            Shape::Mesh(m) => Some(m),
+            _ => None,
+        }
+    }
+
+    /// `hit(object-space ray, t_min, t_max)`, the bounds and the answer's distance
+    /// carried between the spaces: how the shape's own tree is asked.
+    #[inline]
+    pub fn intersect_with(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        hit: impl FnOnce(&Ray, f32, f32) -> Option<Hit>,
+    ) -> Option<Hit> {
         let (r, len) = self.object_ray(ray);
-        self.shape.intersect(&r, t_min * len, t_max * len).map(|h| Hit { t: h.t / len, ..h })
+        hit(&r, t_min * len, t_max * len).map(|h| Hit { t: h.t / len, ..h })
+    }
+
+    /// Whether `blocked(object-space ray, t_max)` says the segment to `t_max` is blocked.
+    #[inline]
+    pub fn blocks_with(&self, ray: &Ray, t_max: f32, blocked: impl FnOnce(&Ray, f32) -> bool) -> bool {
+        let (r, len) = self.object_ray(ray);
+        blocked(&r, t_max * len)
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {
