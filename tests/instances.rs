@@ -78,3 +78,42 @@ fn instances_share_one_tree() {
     assert!(many < one + 300 * 400, "one instance {one} bytes, 300 instances {many}");
     assert!(copies > one * 250, "one copy {one} bytes, 300 copies {copies}");
 }
+
+/// `[[instance]]` in a scene file: the named mesh placed again, with its material or
+/// another, renders as the mesh written out again with that transform would.
+#[test]
+fn instances_in_a_scene_file_render_as_the_mesh_written_again() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut f = std::fs::File::create(dir.path().join("ball.obj")).unwrap();
+    whitted::scene::obj::write_obj(&generate::cube_sphere(8), &mut f).unwrap();
+    let head = "[camera]\nposition = [0, 2, 6]\nlook_at = [0, 0, 0]\nfov = 50\nwidth = 64\nheight = 48\n\n\
+                [[light]]\nposition = [3, 5, 4]\n\n[material.clay]\ncolor = [0.8, 0.5, 0.3]\n\n\
+                [material.gold]\ncolor = [1, 0.8, 0.2]\nshininess = 40\n\n";
+    let mesh = |name: &str, transform: &str, material: &str| {
+        format!("[[mesh]]\n{name}file = \"ball.obj\"\nmaterial = \"{material}\"\ntransform = {transform}\n\n")
+    };
+    let (left, right, up) = (
+        "{ translate = [-1.5, 0, 0], rotate = [0, 20, 0] }",
+        "{ translate = [1.5, 0, 0], scale = 0.7 }",
+        "{ translate = [0, 1.2, -1], scale = [1.5, 0.5, 1] }",
+    );
+    let instanced = format!(
+        "{head}{}[[instance]]\nof = \"ball\"\ntransform = {right}\n\n[[instance]]\nof = \"ball\"\ntransform = {up}\nmaterial = \"gold\"\n",
+        mesh("name = \"ball\"\n", left, "clay")
+    );
+    let written = format!("{head}{}{}{}", mesh("", left, "clay"), mesh("", right, "clay"), mesh("", up, "gold"));
+    let load = |text: &str| whitted::scene::load_str(text, "test.toml", dir.path()).unwrap();
+    let (a, b) = (load(&instanced), load(&written));
+    assert_eq!(a.objects.len(), 3);
+    assert!(matches!(a.objects[1].shape, Shape::Transformed(_)), "the instances share the mesh");
+    let (a, b) = (render(&a, AccelKind::Bvh), render(&b, AccelKind::Bvh));
+    let (mut off, mut lit) = (0, 0);
+    for y in 0..a.height() {
+        for x in 0..a.width() {
+            off += ((a.pixel(x, y) - b.pixel(x, y)).abs().max_element() > 2.0 / 255.0) as u32;
+            lit += (a.pixel(x, y).max_element() > 0.1) as u32;
+        }
+    }
+    assert!(lit * 10 > a.width() * a.height(), "only {lit} pixels lit");
+    assert!(off * 100 < a.width() * a.height(), "{off} pixels differ by more than two levels");
+}

@@ -24,6 +24,8 @@ use toml::Spanned;
 mod light;
 use light::LightDesc;
 mod extra;
+mod instance;
+use instance::InstanceDesc;
 
 /// The built-in default scene: the seed room. The file in the repository is compiled in,
 /// so the two cannot drift apart.
@@ -93,12 +95,16 @@ struct FileDesc {
     mesh: Vec<S<MeshDesc>>,
     #[serde(default)]
     gltf: Vec<S<GltfDesc>>,
+    #[serde(default)]
+    instance: Vec<S<InstanceDesc>>,
 }
 
 /// A glTF asset placed in the scene: its meshes, materials and lights (not its cameras).
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct GltfDesc {
+    /// Names the asset for `[[instance]]`.
+    name: Option<S<String>>,
     file: S<String>,
     transform: Option<S<TransformDesc>>,
 }
@@ -242,6 +248,8 @@ struct ConeDesc {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct MeshDesc {
+    /// Names the mesh for `[[instance]]`.
+    name: Option<S<String>>,
     /// An OBJ file, or else the data inline in the next three fields.
     file: Option<S<String>>,
     positions: Option<S<Vec<V3>>>,
@@ -501,10 +509,14 @@ impl Ctx<'_> {
             }
             place(&mut scene, Shape::Triangle(Triangle::new(a, b, c)), &t.material, &t.transform)?;
         }
+        let mut named = HashMap::new();
         for m in &desc.mesh {
             let mesh = self.mesh(m)?;
             let m = m.get_ref();
             place(&mut scene, mesh.into(), &m.material, &m.transform)?;
+            let placed = m.transform.as_ref().map_or(Ok(glam::Affine3A::IDENTITY), |t| self.transform(t.get_ref()))?;
+            let k = scene.objects.len();
+            self.name_asset(&mut named, &m.name, k - 1..k, placed)?;
         }
         for g in &desc.gltf {
             let g = g.get_ref();
@@ -513,9 +525,15 @@ impl Ctx<'_> {
                 None => glam::Mat4::IDENTITY,
             };
             let path = self.base_dir.join(g.file.get_ref());
+            let first = scene.objects.len();
             let asset = super::gltf::add_gltf(&mut scene, &path, transform)
                 .map_err(|e| self.err(&g.file, "file", e.to_string()))?;
             self.warnings.borrow_mut().extend(asset.warnings);
+            let placed = glam::Affine3A::from_mat4(transform);
+            self.name_asset(&mut named, &g.name, first..scene.objects.len(), placed)?;
+        }
+        for i in &desc.instance {
+            self.instance(&mut scene, &named, i, &resolve)?;
         }
         scene.labels = self.labels(&desc);
         Ok(scene)

@@ -289,8 +289,9 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                     }
                     let _ = writeln!(s, "]");
                 }
-                (Shape::Transformed(_), 0) => {
+                (Shape::Transformed(t), 0) => {
                     let what = match scene.labels.objects.get(i).map(|l| l.table) {
+                        _ if t.mesh().is_some() => "an instance of a mesh".to_owned(),
                         Some(t @ ("sphere" | "cylinder" | "cone")) => format!("a {t} stretched by a non-uniform scale"),
                         _ => "a shape under a non-uniform scale".to_owned(),
                     };
