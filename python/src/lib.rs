@@ -15,7 +15,7 @@ use std::time::Duration;
 use whitted::camera::Camera;
 use whitted::film::{Image, OutputError, write_png};
 use whitted::geometry::{Cone, Cylinder, Mesh, Quad, Sphere, Triangle};
-use whitted::light::PointLight;
+use whitted::light::{Attenuation, DirectionalLight, Light, PointLight, SpotLight};
 use whitted::material::Material;
 use whitted::math::{Color, Vec3};
 use whitted::render::Renderer;
@@ -109,8 +109,9 @@ impl CoreScene {
     }
 
     /// A copy with settings changed and materials, objects and lights added. Objects
-    /// are tuples `(kind, material index among the added ones, fields...)`, checked on
-    /// the Python side; what could still be wrong (a mesh index) raises ValueError.
+    /// are tuples `(kind, material index among the added ones, fields...)`, lights
+    /// tuples `(kind, fields...)` (see [`light`]), checked on the Python side; what
+    /// could still be wrong (a mesh index) raises ValueError.
     #[pyo3(signature = (background, ambient, materials, objects, lights))]
     fn extend(
         &self,
@@ -118,7 +119,7 @@ impl CoreScene {
         ambient: Option<f32>,
         materials: Vec<Bound<'_, PyTuple>>,
         objects: Vec<Bound<'_, PyTuple>>,
-        lights: Vec<(V3, V3)>,
+        lights: Vec<Bound<'_, PyTuple>>,
     ) -> PyResult<CoreScene> {
         let mut scene = self.scene.clone();
         if let Some(b) = background {
@@ -159,8 +160,8 @@ impl CoreScene {
                 other => return Err(PyValueError::new_err(format!("unknown shape kind {other:?}"))),
             };
         }
-        for (position, color) in lights {
-            scene.add_light(PointLight::new(v3(position), v3(color)));
+        for l in lights {
+            scene.add_light(light(&l)?);
         }
         Ok(CoreScene { scene })
     }
@@ -264,17 +265,44 @@ impl CoreScene {
     }
 }
 
+/// A light from `(kind, fields...)`, its fields checked on the Python side as the
+/// scene reader checks them; built as the reader builds it (colour times intensity in
+/// f32, the same constructors), so that it renders as the same light read from TOML:
+/// - `("point", position, color, intensity, attenuation)`
+/// - `("directional", direction, color, intensity)`
+/// - `("spot", position, direction, inner_angle, outer_angle, color, intensity, attenuation)`
+///
+/// `attenuation` is `(constant, linear, quadratic)`; `(1, 0, 0)` is none.
+fn light(l: &Bound<'_, PyTuple>) -> PyResult<Light> {
+    let kind: String = l.get_item(0)?.extract()?;
+    let attenuation = |(c, lin, q): V3| Attenuation::new(c, lin, q);
+    Ok(match kind.as_str() {
+        "point" => {
+            let (position, color, intensity, att): (V3, V3, f32, V3) = l.get_slice(1, 5).extract()?;
+            PointLight::new(v3(position), v3(color) * intensity).with_attenuation(attenuation(att)).into()
+        }
+        "directional" => {
+            let (direction, color, intensity): (V3, V3, f32) = l.get_slice(1, 4).extract()?;
+            DirectionalLight::new(v3(direction), v3(color) * intensity).into()
+        }
+        "spot" => {
+            let (position, direction, inner, outer, color, intensity, att): (V3, V3, f32, f32, V3, f32, V3) =
+                l.get_slice(1, 8).extract()?;
+            SpotLight::new(v3(position), v3(direction), inner, outer, v3(color) * intensity)
+                .with_attenuation(attenuation(att))
+                .into()
+        }
+        other => return Err(PyValueError::new_err(format!("unknown light kind {other:?}"))),
+    })
+}
+
+/// `(color, diffuse, specular, shininess, reflectivity, transparency, ior, texture,
+/// fresnel, absorption)`, checked on the Python side.
+type MaterialArgs<'py> = (V3, f32, f32, f32, f32, f32, f32, Option<Bound<'py, PyTuple>>, bool, V3);
+
 fn material(m: &Bound<'_, PyTuple>) -> PyResult<Material> {
-    let (color, diffuse, specular, shininess, reflectivity, transparency, ior, texture): (
-        V3,
-        f32,
-        f32,
-        f32,
-        f32,
-        f32,
-        f32,
-        Option<Bound<'_, PyTuple>>,
-    ) = m.extract()?;
+    let args: MaterialArgs<'_> = m.extract()?;
+    let (color, diffuse, specular, shininess, reflectivity, transparency, ior, texture, fresnel, absorption) = args;
     let texture = match texture {
         None => Texture::Solid(v3(color)),
         Some(t) => {
@@ -292,7 +320,17 @@ fn material(m: &Bound<'_, PyTuple>) -> PyResult<Material> {
             }
         }
     };
-    Ok(Material { texture, diffuse, specular, shininess, reflectivity, transparency, ior, ..Material::default() })
+    Ok(Material {
+        texture,
+        diffuse,
+        specular,
+        shininess,
+        reflectivity,
+        transparency,
+        ior,
+        fresnel,
+        absorption: v3(absorption),
+    })
 }
 
 /// `("mesh", material, positions (N, 3) float32, triangles (M, 3) uint32, normals or None, smooth)`

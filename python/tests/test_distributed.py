@@ -14,7 +14,7 @@ import pytest
 
 import whitted
 import whitted.distributed as wd
-from conftest import ROOM
+from conftest import ROOM, ROOT
 
 import distributed  # noqa: E402  (a test dependency: a missing one fails, not skips)
 
@@ -76,6 +76,18 @@ def test_scenes_built_in_code_render_on_the_cluster(local_client):
     scene.add(whitted.Sphere((0, 0, 0), 1), whitted.Material(color=(1, 0.3, 0.1), reflectivity=0.2))
     scene.add(whitted.Mesh(np.array([[-2, -1, -1], [2, -1, -1], [0, 2, -2]]), [[0, 1, 2]]), whitted.Material())
     scene.add(whitted.PointLight((3, 4, 5)))
+    assert wd.render_tiles(scene, local_client, tile=32).tobytes() == whitted.render(scene).tobytes()
+
+
+def test_every_light_kind_and_glass_material_reach_the_workers(local_client):
+    """The file's spot and directional lights, and lights and a Fresnel, absorbing glass
+    added in code, survive the trip to the workers (pickled as text plus additions)."""
+    scene = whitted.load(ROOT / "scenes" / "lights.toml", width=72, height=54)
+    scene.add(whitted.SpotLight((-1, 4, 3), (0, -1, 0), 15, 25, color=(0, 1, 0), attenuation=(1, 0, 0.05)))
+    scene.add(whitted.DirectionalLight((0, -1, -1), intensity=0.3))
+    glass = whitted.Material(transparency=0.9, ior=1.5, fresnel=True, absorption=(0.8, 0.1, 0.6))
+    scene.add(whitted.Sphere((0, 1, 2), 0.8), glass)
+    assert "5 lights" in repr(scene)  # the file's three and two
     assert wd.render_tiles(scene, local_client, tile=32).tobytes() == whitted.render(scene).tobytes()
 
 

@@ -23,12 +23,14 @@ from ._scene import (
     Checker,
     Cone,
     Cylinder,
+    DirectionalLight,
     Material,
     Mesh,
     PointLight,
     Quad,
     Scene,
     Sphere,
+    SpotLight,
     Stripes,
     Triangle,
     load,
@@ -36,8 +38,9 @@ from ._scene import (
 from ._scene import _count
 
 __all__ = [
-    "Camera", "Checker", "Cone", "Cylinder", "Material", "Mesh", "PointLight", "Quad", "Scene",
-    "SceneError", "Sphere", "Stripes", "Triangle", "load", "render", "write_png", "to_png_bytes", "show",
+    "Camera", "Checker", "Cone", "Cylinder", "DirectionalLight", "Material", "Mesh", "PointLight", "Quad",
+    "Scene", "SceneError", "Sphere", "SpotLight", "Stripes", "Triangle", "load", "render", "write_png",
+    "to_png_bytes", "show",
 ]
 
 Region = Tuple[int, int, int, int]

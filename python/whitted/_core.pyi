@@ -1,12 +1,21 @@
 """Type stubs for the compiled part of whitted (python/src/lib.rs)."""
 
-from typing import Callable, Optional, Sequence, Tuple
+from typing import Callable, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
 
 _V3 = Tuple[float, float, float]
 _CameraArgs = Tuple[_V3, _V3, _V3, float, int, int]
+# ("point", position, color, intensity, attenuation)
+# ("directional", direction, color, intensity)
+# ("spot", position, direction, inner_angle, outer_angle, color, intensity, attenuation)
+# attenuation: (constant, linear, quadratic), (1, 0, 0) for none.
+_LightArgs = Union[
+    Tuple[Literal["point"], _V3, _V3, float, _V3],
+    Tuple[Literal["directional"], _V3, _V3, float],
+    Tuple[Literal["spot"], _V3, _V3, float, float, _V3, float, _V3],
+]
 
 MAX_RESOLUTION: int
 
@@ -30,7 +39,7 @@ class CoreScene:
         ambient: Optional[float],
         materials: Sequence[tuple],
         objects: Sequence[tuple],
-        lights: Sequence[Tuple[_V3, _V3]],
+        lights: Sequence[_LightArgs],
     ) -> "CoreScene": ...
     def render(
         self,

@@ -147,7 +147,15 @@ class Stripes:
 
 @dataclasses.dataclass(frozen=True)
 class Material:
-    """Phong shading plus mirror reflection and transmission, as in scene files."""
+    """Phong shading plus mirror reflection and transmission, as in scene files.
+
+    - `fresnel=True` splits `transparency` at each hit by the Fresnel equations, the
+      reflected part joining `reflectivity` (glass: 4 % reflected head-on, all at
+      grazing angles);
+    - `absorption=(r, g, b)` per unit length inside the object (Beer-Lambert: light
+      travelling d inside keeps ``exp(-absorption*d)``); numbers >= 0, and anything but
+      (0, 0, 0) needs `transparency` > 0.
+    """
 
     color: Vec3 = (1.0, 1.0, 1.0)
     diffuse: float = 1.0
@@ -157,6 +165,8 @@ class Material:
     transparency: float = 0.0
     ior: float = 1.0
     texture: Optional[Union[Checker, Stripes]] = None
+    fresnel: bool = False
+    absorption: Vec3 = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -168,6 +178,11 @@ class Material:
             set_(self, f, v)
         set_(self, "reflectivity", _share("material.reflectivity", self.reflectivity))
         set_(self, "transparency", _share("material.transparency", self.transparency))
+        set_(self, "fresnel", _bool("material.fresnel", self.fresnel))
+        set_(self, "absorption", _color("material.absorption", self.absorption))
+        # As the scene reader decides it, in float32.
+        if any(np.float32(v) != 0 for v in self.absorption) and np.float32(self.transparency) == 0:
+            raise ValueError("material.absorption: needs transparency > 0: nothing travels inside to be absorbed")
         if self.reflectivity + self.transparency > 1.0:
             raise ValueError(
                 "material: reflectivity + transparency must be at most 1 "
@@ -182,7 +197,7 @@ class Material:
     def _args(self):
         tex = None if self.texture is None else self.texture._args()
         return (self.color, self.diffuse, self.specular, self.shininess, self.reflectivity,
-                self.transparency, self.ior, tex)
+                self.transparency, self.ior, tex, self.fresnel, self.absorption)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -324,14 +339,141 @@ class Mesh:
         return f"Mesh({len(self.positions)} vertices, {len(self.triangles)} triangles)"
 
 
+def _f32(field: str, value: float) -> float:
+    """`value` as the core will hold it (float32), which must still be finite."""
+    v = float(np.float32(value))
+    if not math.isfinite(v):
+        raise ValueError(f"{field}: must be a finite float32 number (got {value})")
+    return v
+
+
+def _direction(field: str, value: Any) -> Vec3:
+    """Three finite numbers, not the zero vector (in float32, as the core normalises it)."""
+    d = _vec3(field, value)
+    x, y, z = (np.float32(_f32(field, v)) for v in d)
+    with np.errstate(over="ignore", under="ignore"):
+        length_squared = x * x + y * y + z * z
+    if not length_squared > 0:
+        raise ValueError(f"{field}: must not be the zero vector")
+    return d
+
+
+def _attenuation(field: str, value: Any) -> Vec3:
+    """`(constant, linear, quadratic)`: finite, >= 0, not all zero; (1, 0, 0) is none."""
+    a = _vec3(field, value)
+    if min(a) < 0:
+        raise ValueError(f"{field}: must be three finite numbers >= 0 (got {list(a)})")
+    for v in a:
+        _f32(field, v)
+    if not any(np.float32(v) > 0 for v in a):
+        raise ValueError(f"{field}: must not be all zero (1 / 0 light); (1, 0, 0) is none")
+    return a
+
+
+def _non_negative(field: str, value: Any) -> float:
+    v = _number(field, value)
+    if v < 0:
+        raise ValueError(f"{field}: must be >= 0 (got {v})")
+    return v
+
+
+def _angle(field: str, value: Any) -> float:
+    v = _number(field, value)
+    if not 0 < _f32(field, v) < 90:
+        raise ValueError(f"{field}: must be between 0 and 90 degrees, both excluded (got {v})")
+    return v
+
+
+NO_ATTENUATION: Vec3 = (1.0, 0.0, 0.0)
+
+
 @dataclasses.dataclass(frozen=True)
 class PointLight:
+    """A light at `position` shining equally every way, as ``[[light]]`` (``kind =
+    "point"``) in a scene file.
+
+    - `color` times `intensity` is the light's colour (components >= 0);
+    - `attenuation=(constant, linear, quadratic)`: at distance d the light is divided by
+      ``constant + linear*d + quadratic*d**2``; numbers >= 0, not all zero; the default
+      (1, 0, 0) is no falloff.
+    """
+
     position: Vec3
     color: Vec3 = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+    attenuation: Vec3 = NO_ATTENUATION
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "position", _vec3("light.position", self.position))
-        object.__setattr__(self, "color", _color("light.color", self.color))
+        set_ = object.__setattr__
+        set_(self, "position", _vec3("light.position", self.position))
+        set_(self, "color", _color("light.color", self.color))
+        set_(self, "intensity", _non_negative("light.intensity", self.intensity))
+        set_(self, "attenuation", _attenuation("light.attenuation", self.attenuation))
+
+    def _args(self):
+        return ("point", self.position, self.color, self.intensity, self.attenuation)
+
+
+@dataclasses.dataclass(frozen=True)
+class DirectionalLight:
+    """A light infinitely far away (the sun): parallel rays travelling along
+    `direction` (need not be unit; not zero), no falloff, shadows to infinity. As
+    ``[[light]]`` with ``kind = "directional"`` in a scene file."""
+
+    direction: Vec3
+    color: Vec3 = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "direction", _direction("light.direction", self.direction))
+        set_(self, "color", _color("light.color", self.color))
+        set_(self, "intensity", _non_negative("light.intensity", self.intensity))
+
+    def _args(self):
+        return ("directional", self.direction, self.color, self.intensity)
+
+
+@dataclasses.dataclass(frozen=True)
+class SpotLight:
+    """A light at `position` shining into a cone around `direction` (the way its axis
+    points; not zero), as ``[[light]]`` with ``kind = "spot"`` in a scene file.
+
+    `inner_angle` and `outer_angle` are half-angles from the axis in degrees, ``0 <
+    inner_angle <= outer_angle < 90``: full light within the inner one, none past the
+    outer one, a smooth falloff between. `color`, `intensity` and `attenuation` are as
+    for :class:`PointLight`.
+    """
+
+    position: Vec3
+    direction: Vec3
+    inner_angle: float
+    outer_angle: float
+    color: Vec3 = (1.0, 1.0, 1.0)
+    intensity: float = 1.0
+    attenuation: Vec3 = NO_ATTENUATION
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "position", _vec3("light.position", self.position))
+        set_(self, "direction", _direction("light.direction", self.direction))
+        inner = _angle("light.inner_angle", self.inner_angle)
+        outer = _angle("light.outer_angle", self.outer_angle)
+        if _f32("light.inner_angle", inner) > _f32("light.outer_angle", outer):
+            raise ValueError(f"light.inner_angle: must be at most outer_angle (got {inner} > {outer})")
+        set_(self, "inner_angle", inner)
+        set_(self, "outer_angle", outer)
+        set_(self, "color", _color("light.color", self.color))
+        set_(self, "intensity", _non_negative("light.intensity", self.intensity))
+        set_(self, "attenuation", _attenuation("light.attenuation", self.attenuation))
+
+    def _args(self):
+        return ("spot", self.position, self.direction, self.inner_angle, self.outer_angle, self.color,
+                self.intensity, self.attenuation)
+
+
+Light = Union[PointLight, DirectionalLight, SpotLight]
+_LIGHTS = (PointLight, DirectionalLight, SpotLight)
 
 
 Shape = Union[Sphere, Quad, Triangle, Cylinder, Cone, Mesh]
@@ -377,7 +519,7 @@ class _Base:
                         self.ambient,
                         [m._args() for m in self.materials],
                         [(s._args()[0], i) + s._args()[1:] for s, i in self.objects],
-                        [(l.position, l.color) for l in self.lights],
+                        [light._args() for light in self.lights],
                     )
                 self._core = core
             return self._core
@@ -495,15 +637,16 @@ class Scene:
 
     # -- building ------------------------------------------------------------------
 
-    def add(self, item: Union[Shape, PointLight], material: Optional[Material] = None) -> "Scene":
-        """Adds a shape with its material, or a light. Returns the scene."""
-        if isinstance(item, PointLight):
+    def add(self, item: Union[Shape, Light], material: Optional[Material] = None) -> "Scene":
+        """Adds a shape with its material, or a light (:class:`PointLight`,
+        :class:`DirectionalLight`, :class:`SpotLight`). Returns the scene."""
+        if isinstance(item, _LIGHTS):
             if material is not None:
                 raise TypeError("a light takes no material")
             self._base = self._base.changed(lights=self._base.lights + (item,))
             return self
         if not isinstance(item, _SHAPES):
-            raise TypeError(f"add: expected a shape or PointLight, got {type(item).__name__}")
+            raise TypeError(f"add: expected a shape or a light, got {type(item).__name__}")
         if material is None:
             material = Material()
         if not isinstance(material, Material):
@@ -515,7 +658,11 @@ class Scene:
         self._base = self._base.changed(materials=materials, objects=self._base.objects + ((item, index),))
         return self
 
-    def add_light(self, light: PointLight) -> "Scene":
+    def add_light(self, light: Light) -> "Scene":
+        """Adds a light; ``scene.add(light)`` does the same."""
+        if not isinstance(light, _LIGHTS):
+            kind = type(light).__name__
+            raise TypeError(f"add_light: expected a PointLight, DirectionalLight or SpotLight, got {kind}")
         return self.add(light)
 
     def copy(self, **changes: Any) -> "Scene":
