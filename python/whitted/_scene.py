@@ -320,7 +320,12 @@ class Mesh:
         return a
 
     def _args(self):
-        return ("mesh", self.positions, self.triangles, self.normals, self.smooth)
+        # An array unpickled from a stream (as Dask sends scenes) may sit at any byte
+        # offset; the Rust side reads only aligned, contiguous arrays, so realign here.
+        def ready(a):
+            return None if a is None else np.require(a, requirements=["C_CONTIGUOUS", "ALIGNED"])
+
+        return ("mesh", ready(self.positions), ready(self.triangles), ready(self.normals), self.smooth)
 
     def __repr__(self) -> str:
         return f"Mesh({len(self.positions)} vertices, {len(self.triangles)} triangles)"
