@@ -6,7 +6,8 @@
 //! [`Cone`](crate::geometry::Cone): `top_radius` and `top_cap` make a truncated cone;
 //! `[[mesh]]` in [`Mesh`](crate::geometry::Mesh): an OBJ `file` or inline `positions`,
 //! `normals` and `triangles`), the camera in [`crate::camera`], lights in
-//! [`crate::light`], materials in [`crate::material`].
+//! [`crate::light`], materials in [`crate::material`], keyframes (`keys`) in `keys.rs`
+//! and [`crate::scene::animation`].
 
 use super::{Animation, MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};

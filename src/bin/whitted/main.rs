@@ -319,7 +319,10 @@ fn render(args: RenderArgs) -> Result<(), String> {
             "--frames needs an output name with a run of # for the frame number, such as out/frame-####.png (got {})",
             output.display()
         );
-        Cli::command().error(clap::error::ErrorKind::ArgumentConflict, message).exit();
+        let mut cli = Cli::command();
+        cli.build();
+        let render = cli.find_subcommand_mut("render").expect("the render subcommand exists");
+        render.error(clap::error::ErrorKind::ArgumentConflict, message).exit();
     }
     let load_start = Instant::now();
     let (loaded, _) = load_scene(args.scene.as_deref(), args.format)?;
@@ -455,6 +458,9 @@ fn convert(args: ConvertArgs) -> Result<(), String> {
     if !args.quiet {
         for w in loaded.warnings.iter().chain(&loaded.scene.warnings()) {
             eprintln!("warning: {w}");
+        }
+        if let Some(a) = &loaded.animation {
+            eprintln!("warning: the scene's keys are not written: the TOML holds frame {} of its animation", a.first);
         }
     }
     let note = format!("Converted from {} by whitted convert.", args.input.display());
