@@ -273,6 +273,10 @@ fn bad_keys_are_reported_by_line_and_field() {
         assert_eq!((l, f.as_str()), (*line, *field), "{src}\n{m}");
         assert!(m.contains(words), "{src}\nmessage: {m}");
     }
+    // Empty key lists animate nothing.
+    let empty = format!("{cam}keys = []\n[[light]]\nposition = [0, 5, 0]\nkeys = []\n{sphere}keys = []\n");
+    let (_, anim, _) = load_animated_str(&empty, "empty.toml", Path::new(".")).unwrap();
+    assert!(anim.is_static());
     // A polygon that a key's rotation turns edge-on is fine (it only turns); one that
     // a per-axis scale flattens is not.
     let poly =

@@ -130,8 +130,9 @@ impl Ctx<'_> {
     }
 
     pub(super) fn camera_keys(&self, d: &CameraDesc, camera: &Camera, range: Option<(u32, u32)>) -> R<CameraKeys> {
-        let Some(keys) = &d.keys else { return Ok(CameraKeys::default()) };
-        let keys = keys.get_ref();
+        let Some(keys) = d.keys.as_ref().map(|k| k.get_ref()).filter(|k| !k.is_empty()) else {
+            return Ok(CameraKeys::default());
+        };
         let i = self.interpolation(&d.interpolation)?;
         let frames = self.frames(keys, |k| &k.frame, range)?;
         let mut values = [vec![], vec![], vec![]];
