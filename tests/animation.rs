@@ -185,6 +185,14 @@ fn only_moving_objects_need_a_new_acceleration_structure() {
     let (_, anim) = load_anim(&animated("smooth"));
     assert!(anim.moves_geometry(0, 1) && anim.moves_geometry(9, 10));
     assert!(!anim.moves_geometry(10, 11) && !anim.moves_geometry(12, 40), "values hold after the last key");
+    assert!(anim.moves_lights(0, 1) && !anim.moves_lights(10, 11));
+    // Only a light moving: a new structure too (the world reads lights through its scene).
+    let light_only = format!(
+        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[light]]\nposition = [0, 5, 0]\n\
+         keys = [{{ frame = 0, position = [0, 5, 0] }}, {{ frame = 4, position = [2, 5, 0] }}]\n"
+    );
+    let (_, a) = load_anim(&light_only);
+    assert!(!a.moves_geometry(0, 1) && a.needs_new_world(0, 1) && !a.needs_new_world(4, 5));
     let camera_only = std::fs::read_to_string(common::manifest("scenes/turntable.toml")).unwrap();
     let (scene, anim) = load_anim(&camera_only);
     assert!(!anim.is_static() && anim.objects.is_empty() && anim.lights.is_empty());
@@ -306,6 +314,31 @@ fn the_command_line_writes_one_file_per_frame() {
     assert_eq!(names, ["frame-0000.png", "frame-0001.png", "frame-0002.png"]);
     let e = String::from_utf8_lossy(&r.stderr);
     assert!(e.contains("wrote 3 frames"), "{e}");
+    // Every frame moves an object, so each gets its own acceleration structure; the
+    // turntable moves only its camera, so its frames share one.
+    let stats = |scene: &str, pattern: &Path| {
+        let r = whitted(&[
+            "render",
+            scene,
+            "--frames",
+            "0..2",
+            "--width",
+            "16",
+            "-q",
+            "--stats",
+            "-o",
+            pattern.to_str().unwrap(),
+        ]);
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        String::from_utf8_lossy(&r.stdout).into_owned()
+    };
+    let elsewhere = dir.path().join("stats");
+    std::fs::create_dir(&elsewhere).unwrap();
+    let out_stats = stats(s, &elsewhere.join("a-#.png"));
+    assert!(out_stats.contains("acceleration structures built: 3"), "{out_stats}");
+    let turntable = common::manifest("scenes/turntable.toml");
+    let out_stats = stats(turntable.to_str().unwrap(), &elsewhere.join("t-#.png"));
+    assert!(out_stats.contains("acceleration structures built: 1"), "{out_stats}");
     // Each file is the frame rendered alone; they differ from each other.
     let one = dir.path().join("one.png");
     let r = whitted(&["render", s, "--frame", "1", "-o", one.to_str().unwrap(), "-q"]);

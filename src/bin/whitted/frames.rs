@@ -108,7 +108,7 @@ pub fn render_frames(
         );
     }
     if args.stats {
-        println!("frames      {count} ({first} to {last}), {worlds} acceleration structures built");
+        println!("frames      {count} ({first} to {last}); acceleration structures built: {worlds}");
         println!("build time  {:.3} s in all", build.as_secs_f64());
         println!(
             "render time {:.4} s in all, {:.4} s per frame",
