@@ -187,11 +187,9 @@ fn only_moving_objects_need_a_new_acceleration_structure() {
     assert!(!anim.moves_geometry(10, 11) && !anim.moves_geometry(12, 40), "values hold after the last key");
     assert!(anim.moves_lights(0, 1) && !anim.moves_lights(10, 11));
     // Only a light moving: a new structure too (the world reads lights through its scene).
-    let light_only = format!(
-        "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[light]]\nposition = [0, 5, 0]\n\
-         keys = [{{ frame = 0, position = [0, 5, 0] }}, {{ frame = 4, position = [2, 5, 0] }}]\n"
-    );
-    let (_, a) = load_anim(&light_only);
+    let light_only = "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nfov = 40\n[[light]]\nposition = [0, 5, 0]\n\
+         keys = [{ frame = 0, position = [0, 5, 0] }, { frame = 4, position = [2, 5, 0] }]\n";
+    let (_, a) = load_anim(light_only);
     assert!(!a.moves_geometry(0, 1) && a.needs_new_world(0, 1) && !a.needs_new_world(4, 5));
     let camera_only = std::fs::read_to_string(common::manifest("scenes/turntable.toml")).unwrap();
     let (scene, anim) = load_anim(&camera_only);
