@@ -266,6 +266,12 @@ impl<'s> Renderer<'s> {
         self.in_pool(|| self.render_tiles(world, &|_, _| {}, None)).expect("a render without a cancel flag completes")
     }
 
+    /// [`Renderer::render_world`] with progress: the frames of an animation where only
+    /// the camera moves share one acceleration structure.
+    pub fn render_world_with_progress(&self, world: &World, progress: &(dyn Fn(usize, usize) + Sync)) -> RenderOutput {
+        self.in_pool(|| self.render_tiles(world, progress, None)).expect("a render without a cancel flag completes")
+    }
+
     /// Renders unless `cancel` becomes true first, in which case it returns `None` soon
     /// after: the flag is checked before every tile, so a stale frame in an interactive
     /// viewer stops within one tile's time rather than one image's.

@@ -9,6 +9,7 @@ use pyo3::exceptions::{PyException, PyOSError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyTuple};
 use std::path::Path;
+use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
@@ -19,7 +20,7 @@ use whitted::light::{Attenuation, DirectionalLight, Light, PointLight, SpotLight
 use whitted::material::Material;
 use whitted::math::{Color, Vec3};
 use whitted::render::Renderer;
-use whitted::scene::{self, MaterialId, Scene};
+use whitted::scene::{self, Animation, MaterialId, Scene};
 use whitted::texture::Texture;
 
 create_exception!(
@@ -53,6 +54,8 @@ fn scene_error(e: scene::SceneError) -> PyErr {
 #[pyclass(module = "whitted._core", frozen)]
 struct CoreScene {
     scene: Scene,
+    /// What moves, for a TOML file with keys; `scene` is then one of its frames.
+    animation: Option<Arc<Animation>>,
 }
 
 #[pymethods]
@@ -66,30 +69,55 @@ impl CoreScene {
         let loaded = py.detach(|| scene::load_path(path, format)).map_err(scene_error)?;
         let text = std::fs::read_to_string(path)
             .map_err(|e| SceneError::new_err(format!("{}: cannot read the scene: {e}", path.display())))?;
-        Ok((CoreScene { scene: loaded.scene }, text))
+        Ok((CoreScene { scene: loaded.scene, animation: loaded.animation.map(Arc::new) }, text))
     }
 
     /// Parses scene text; `name` is used in messages, relative paths resolve against
     /// `base_dir`.
     #[staticmethod]
     fn parse(py: Python<'_>, text: &str, name: &str, base_dir: &str, nff: bool) -> PyResult<CoreScene> {
-        let scene = py
+        let (scene, animation) = py
             .detach(|| {
                 if nff {
-                    scene::nff::read_nff(text.as_bytes(), name).map(|n| n.scene)
+                    scene::nff::read_nff(text.as_bytes(), name).map(|n| (n.scene, None))
                 } else {
-                    scene::load_str(text, name, Path::new(base_dir))
+                    scene::load_animated_str(text, name, Path::new(base_dir))
+                        .map(|(scene, a, _)| (scene, (!a.is_static()).then(|| Arc::new(a))))
                 }
             })
             .map_err(scene_error)?;
-        Ok(CoreScene { scene })
+        Ok(CoreScene { scene, animation })
+    }
+
+    /// `(first, last)` of an animated scene's `[settings] frames` (else 0 to its last
+    /// key); `None` for a scene without keys.
+    fn frames(&self) -> Option<(u32, u32)> {
+        self.animation.as_ref().map(|a| (a.first, a.last))
+    }
+
+    /// The scene at `frame`: every keyed value of that frame written in (a scene without
+    /// keys is returned as it is). Frames beyond the keys hold their values.
+    fn at_frame(&self, py: Python<'_>, frame: u32) -> PyResult<CoreScene> {
+        let Some(anim) = &self.animation else {
+            return Ok(CoreScene { scene: self.scene.clone(), animation: None });
+        };
+        let scene = py.detach(|| anim.scene_at(&self.scene, frame)).map_err(scene_error)?;
+        Ok(CoreScene { scene, animation: Some(anim.clone()) })
+    }
+
+    /// `camera` with the fields the scene's keys animate set to their values at `frame`.
+    fn camera_at(&self, camera: CameraArgs, frame: u32) -> CameraArgs {
+        let (position, look_at, up, fov, width, height) = camera;
+        let cam = Camera::new(v3(position), v3(look_at), v3(up), fov, width, height);
+        let c = self.animation.as_ref().map_or(cam, |a| a.camera_at(&cam, frame));
+        (t3(c.position), t3(c.look_at), t3(c.up), c.fov, c.width, c.height)
     }
 
     /// An empty scene (its camera is given at render time).
     #[staticmethod]
     fn empty() -> CoreScene {
         let camera = Camera::new(Vec3::ZERO, Vec3::NEG_Z, Vec3::Y, 45.0, 64, 64);
-        CoreScene { scene: Scene::new(camera) }
+        CoreScene { scene: Scene::new(camera), animation: None }
     }
 
     fn camera(&self) -> CameraArgs {
@@ -163,7 +191,9 @@ impl CoreScene {
         for l in lights {
             scene.add_light(light(&l)?);
         }
-        Ok(CoreScene { scene })
+        // Objects and lights added here come after the file's, so the keys still point
+        // at the ones they animate.
+        Ok(CoreScene { scene, animation: self.animation.clone() })
     }
 
     /// Renders through `camera` into a new float32 array of shape (height, width, 3), or

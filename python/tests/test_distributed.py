@@ -204,3 +204,17 @@ def test_a_worker_killed_during_render_tiles_costs_a_retry_not_the_image(hand_cl
     assert cluster.procs[1 + [p.pid for p in cluster.procs[1:]].index(victim)].wait(timeout=10) == -signal.SIGKILL
     assert len(client.scheduler_info()["workers"]) == 1
     assert image.tobytes() == whitted.render(scene).tobytes()
+
+
+def test_render_frames_writes_each_frame_of_an_animation(local_client, tmp_path):
+    from test_render import ANIMATED
+
+    scene = whitted.Scene.from_toml(ANIMATED, "anim.toml")
+    paths = wd.render_frames(scene, local_client, tmp_path, frames=range(2, 5), progress=False)
+    assert [os.path.basename(p) for p in paths] == ["frame_0002.png", "frame_0003.png", "frame_0004.png"]
+    for f, p in zip(range(2, 5), paths):
+        assert open(p, "rb").read() == whitted.to_png_bytes(whitted.render(scene, frame=f))
+    # Without frames: the scene's own range.
+    assert len(wd.render_frames(scene, local_client, tmp_path / "all", progress=False)) == 9
+    with pytest.raises(ValueError):
+        wd.render_frames(room(), local_client, tmp_path)

@@ -301,3 +301,78 @@ def test_show_makes_an_ipython_image(monkeypatch):
     shown = whitted.show(image)
     assert shown.data[:8] == b"\x89PNG\r\n\x1a\n"
     assert shown.data == whitted.to_png_bytes(image)
+
+
+ANIMATED = """
+[settings]
+frames = [0, 8]
+
+[camera]
+position = [0, 1, 6]
+look_at = [0, 0, 0]
+fov = 40
+width = 40
+height = 30
+keys = [{ frame = 0, position = [0, 1, 6] }, { frame = 8, position = [3, 2, 5], fov = 55 }]
+
+[[light]]
+position = [5, 5, 5]
+keys = [{ frame = 0, position = [5, 5, 5] }, { frame = 8, position = [-5, 4, 3] }]
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = { color = [1, 0.2, 0.2] }
+keys = [{ frame = 0, transform = { translate = [-1, 0, 0] } }, { frame = 8, transform = { translate = [1, 0, -1] } }]
+
+[[quad]]
+corner = [-4, -1, 4]
+edge_u = [8, 0, 0]
+edge_v = [0, 0, -8]
+material = { color = [0.8, 0.8, 0.8] }
+"""
+
+LAST = """
+[camera]
+position = [3, 2, 5]
+look_at = [0, 0, 0]
+fov = 55
+width = 40
+height = 30
+
+[[light]]
+position = [-5, 4, 3]
+
+[[sphere]]
+center = [0, 0, 0]
+radius = 1
+material = { color = [1, 0.2, 0.2] }
+transform = { translate = [1, 0, -1] }
+
+[[quad]]
+corner = [-4, -1, 4]
+edge_u = [8, 0, 0]
+edge_v = [0, 0, -8]
+material = { color = [0.8, 0.8, 0.8] }
+"""
+
+
+def test_frames_of_an_animated_scene_equal_the_scene_written_with_their_values(tmp_path, whitted_bin):
+    scene = whitted.Scene.from_toml(ANIMATED, "anim.toml")
+    assert scene.frames == (0, 8)
+    assert room().frames is None
+    last = whitted.render(whitted.Scene.from_toml(LAST, "last.toml"))
+    assert whitted.render(scene, frame=8).tobytes() == last.tobytes()
+    assert whitted.render(scene.at_frame(8)).tobytes() == last.tobytes()
+    assert whitted.render(scene).tobytes() != last.tobytes()
+    # Frame 4 as the command line renders it, and through a pickle (as Dask sends it).
+    path = tmp_path / "anim.toml"
+    path.write_text(ANIMATED)
+    out = tmp_path / "f-##.png"
+    subprocess.run([whitted_bin, "render", str(path), "--frames", "3..4", "-o", str(out), "-q"], check=True)
+    image = whitted.render(whitted.load(path), frame=4)
+    assert whitted.to_png_bytes(image) == (tmp_path / "f-04.png").read_bytes()
+    again = pickle.loads(pickle.dumps(whitted.load(path).at_frame(4)))
+    assert whitted.render(again).tobytes() == image.tobytes()
+    with pytest.raises(ValueError):
+        scene.at_frame(-1)

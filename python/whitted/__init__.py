@@ -94,6 +94,7 @@ def render(
     region: Optional[Region] = None,
     progress: Any = None,
     max_depth: Optional[int] = None,
+    frame: Optional[int] = None,
 ) -> np.ndarray:
     """Renders `scene` and returns a writable, C-contiguous float32 array of shape
     (height, width, 3) in linear colour (or the region's size).
@@ -103,11 +104,14 @@ def render(
       they are in the full image.
     - `progress(done, total)` is called from this thread as tiles complete; a tqdm bar
       (or True, for a new one) works too.
+    - `frame=N` renders frame N of an animated scene (``scene.at_frame(N)``).
 
     The GIL is released while rendering; Ctrl-C raises KeyboardInterrupt within a tile.
     """
     if not isinstance(scene, Scene):
         raise TypeError(f"scene: expected whitted.Scene, got {type(scene).__name__}")
+    if frame is not None:
+        scene = scene.at_frame(frame)
     spp = scene.spp if spp is None else _count("spp", spp, 1, 65536)
     max_depth = scene.max_depth if max_depth is None else _count("max_depth", max_depth, 1, 1000)
     if threads is not None:
@@ -115,6 +119,9 @@ def render(
     region = _region(region, scene.width, scene.height)
     callback = _progress_callback(progress)
     core = scene._base.core()
+    at = getattr(scene, "_frame", None)
+    if at is not None:
+        core = core.at_frame(at)
     return core.render(scene.camera._args(), spp, max_depth, threads, region, callback)
 
 

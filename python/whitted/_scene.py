@@ -21,6 +21,8 @@ from . import _core
 Vec3 = Tuple[float, float, float]
 
 MAX_RESOLUTION = _core.MAX_RESOLUTION
+# Frame numbers run from 0 to this (the scene reader's limit).
+MAX_FRAME = 1_000_000
 
 
 def _vec3(field: str, value: Any) -> Vec3:
@@ -333,7 +335,12 @@ class Mesh:
         return a
 
     def _args(self):
-        return ("mesh", self.positions, self.triangles, self.normals, self.smooth)
+        # An array unpickled from a stream (as Dask sends scenes) may sit at any byte
+        # offset; the Rust side reads only aligned, contiguous arrays, so realign here.
+        def ready(a):
+            return None if a is None else np.require(a, requirements=["C_CONTIGUOUS", "ALIGNED"])
+
+        return ("mesh", ready(self.positions), ready(self.triangles), ready(self.normals), self.smooth)
 
     def __repr__(self) -> str:
         return f"Mesh({len(self.positions)} vertices, {len(self.triangles)} triangles)"
@@ -551,6 +558,7 @@ class Scene:
         self.spp = spp
         self.max_depth = max_depth
         self._base = _Base(background=_color("background", background), ambient=_share("ambient", ambient))
+        self._frame: Optional[int] = None
 
     @classmethod
     def _from_core(cls, core, source) -> "Scene":
@@ -561,6 +569,7 @@ class Scene:
         scene.spp = samples
         scene.max_depth = max_depth
         scene._base = _Base(source=source, core=core)
+        scene._frame = None
         return scene
 
     @classmethod
@@ -670,11 +679,32 @@ class Scene:
         a camera field, give it directly: ``scene.copy(position=(x, y, z))``."""
         new = Scene.__new__(Scene)
         new._base = self._base
+        new._frame = getattr(self, "_frame", None)
         new.camera = changes.pop("camera", self.camera)
         new.spp = changes.pop("spp", self.spp)
         new.max_depth = changes.pop("max_depth", self.max_depth)
         if changes:
             new.camera = new.camera.replace(**changes)
+        return new
+
+    # -- animation -----------------------------------------------------------------
+
+    @property
+    def frames(self) -> Optional[Tuple[int, int]]:
+        """``(first, last)`` of an animated scene (a TOML file with ``keys``): its
+        ``[settings] frames``, else 0 to its last key; None for a scene without keys."""
+        return self._base.core().frames()
+
+    def at_frame(self, frame: int) -> "Scene":
+        """This scene at `frame` of its animation: the camera fields, light positions and
+        object transforms its keys animate take that frame's values (frames beyond the
+        keys hold them). It shares the geometry, so Dask sends it once for all frames;
+        the frame is applied where the scene renders. A scene without keys is the same
+        at every frame."""
+        frame = _count("frame", frame, 0, MAX_FRAME)
+        new = self.copy()
+        new._frame = frame
+        new.camera = Camera(*self._base.core().camera_at(self.camera._args(), frame))
         return new
 
     def __repr__(self) -> str:

@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import os
 import tempfile
-from typing import Any, Iterable, List, Optional
+from typing import Any, Iterable, List, Optional, Sequence
 
 import numpy as np
 
 import whitted
-from ._scene import Scene, _Base, _count
+from ._scene import MAX_FRAME, Scene, _Base, _count
 
 
 def _tiles(width: int, height: int, tile: int):
@@ -39,9 +39,10 @@ def _render_region(scene: Scene, region, spp, max_depth) -> np.ndarray:
     return whitted.render(scene, spp=spp, max_depth=max_depth, region=region, threads=1)
 
 
-def _render_frame(base: _Base, camera, spp, max_depth) -> bytes:
+def _render_frame(base: _Base, camera, spp, max_depth, frame=None) -> bytes:
     scene = Scene.__new__(Scene)
     scene._base, scene.camera, scene.spp, scene.max_depth = base, camera, spp, max_depth
+    scene._frame = frame
     image = whitted.render(scene, threads=1)
     return whitted.to_png_bytes(image)
 
@@ -130,14 +131,16 @@ def render_many(
     retries: int = 2,
     in_flight: Optional[int] = None,
     progress: Any = True,
+    numbers: Optional[Sequence[int]] = None,
 ) -> List[str]:
     """Renders each scene (frames of an animation, say) on the cluster to a numbered PNG
     file in `out_dir` (``name.format(i)``), each written (atomically) as it arrives.
 
     Workers send back PNG bytes, not float images, and at most `in_flight` frames are
     out at a time (default: twice the cluster's threads), so memory stays bounded however
-    many frames there are. Scenes that share geometry (made with ``scene.copy(...)``)
-    send it once. Returns the paths in frame order.
+    many frames there are. Scenes that share geometry (made with ``scene.copy(...)``
+    or ``scene.at_frame(...)``) send it once. `numbers`, if given, numbers the files
+    instead of the scenes' positions. Returns the paths in frame order.
     """
     from distributed import as_completed
 
@@ -167,8 +170,10 @@ def render_many(
             shared[key] = (scene._base, remote)
         s = scene.spp if spp is None else spp
         d = scene.max_depth if max_depth is None else max_depth
-        future = client.submit(_render_frame, shared[key][1], scene.camera, s, d, retries=retries, pure=False)
-        paths[future.key] = (i, os.path.join(out_dir, name.format(i)))
+        frame = getattr(scene, "_frame", None)
+        future = client.submit(_render_frame, shared[key][1], scene.camera, s, d, frame, retries=retries, pure=False)
+        number = i if numbers is None else numbers[i]
+        paths[future.key] = (i, os.path.join(out_dir, name.format(number)))
         pending.add(future)
         return True
 
@@ -193,3 +198,28 @@ def render_many(
         for _, remote in shared.values():
             remote.release()
     return [p for _, p in sorted(written)]
+
+
+def render_frames(
+    scene: Scene,
+    client,
+    out_dir: os.PathLike,
+    frames: Optional[Iterable[int]] = None,
+    name: str = "frame_{:04d}.png",
+    **options: Any,
+) -> List[str]:
+    """Renders frames of an animated scene (a TOML file with ``keys``) on the cluster,
+    one task per frame, each to ``name.format(frame)`` in `out_dir`. `frames` defaults
+    to the scene's own range (``scene.frames``, both ends included). The scene's
+    geometry goes to the workers once; each worker applies its frame's values. Other
+    options are :func:`render_many`'s. Returns the paths in frame order.
+    """
+    if not isinstance(scene, Scene):
+        raise TypeError(f"scene: expected whitted.Scene, got {type(scene).__name__}")
+    if frames is None:
+        span = scene.frames
+        if span is None:
+            raise ValueError("the scene has no keys: give frames=range(first, last + 1)")
+        frames = range(span[0], span[1] + 1)
+    numbers = [_count("frames", f, 0, MAX_FRAME) for f in frames]
+    return render_many([scene.at_frame(f) for f in numbers], client, out_dir, name=name, numbers=numbers, **options)

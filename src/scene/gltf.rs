@@ -53,7 +53,7 @@ pub fn load_gltf(path: &Path) -> Result<Loaded, SceneError> {
         scene.camera = c;
     }
     super::frame::complete(&mut scene, asset.camera.is_some(), &path.display().to_string(), &mut notes);
-    Ok(Loaded { scene, warnings, notes, nff: None })
+    Ok(Loaded { scene, warnings, notes, nff: None, animation: None })
 }
 
 /// Adds the meshes and lights of the glTF file at `path`, placed by `transform`, to

@@ -6,9 +6,10 @@
 //! [`Cone`](crate::geometry::Cone): `top_radius` and `top_cap` make a truncated cone;
 //! `[[mesh]]` in [`Mesh`](crate::geometry::Mesh): an OBJ `file` or inline `positions`,
 //! `normals` and `triangles`), the camera in [`crate::camera`], lights in
-//! [`crate::light`], materials in [`crate::material`].
+//! [`crate::light`], materials in [`crate::material`], keyframes (`keys`) in `keys.rs`
+//! and [`crate::scene::animation`].
 
-use super::{MaterialId, Object, Scene, SceneError, Settings};
+use super::{Animation, MaterialId, Object, Scene, SceneError, Settings};
 use crate::camera::{Camera, CameraError};
 use crate::film::ColorEncoding;
 use crate::geometry::{self, Cone, Cylinder, Mesh, Polygon, Quad, Shape, Sphere, Triangle};
@@ -25,7 +26,10 @@ mod light;
 use light::LightDesc;
 mod extra;
 mod instance;
+mod keys;
+mod texture;
 use instance::InstanceDesc;
+use keys::{CameraKey, Keys, LightKey, ObjectKey};
 
 /// The built-in default scene: the seed room. The file in the repository is compiled in,
 /// so the two cannot drift apart.
@@ -37,33 +41,42 @@ pub const MAX_RESOLUTION: i64 = 16384;
 const MAX_DEPTH: i64 = 1000;
 const MAX_SAMPLES: i64 = 65536;
 
-/// Reads and checks a scene file. Relative texture paths are relative to the file.
+/// Reads and checks a scene file. Relative texture paths are relative to the file. An
+/// animated file gives its first frame ([`load_animated_file`] gives all).
 pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
-    load_file_with_warnings(path).map(|(scene, _)| scene)
+    load_animated_file(path).map(|(scene, _, _)| scene)
 }
 
-/// [`load_file`], with the warnings of the files it places (`[[gltf]]` assets).
-pub(super) fn load_file_with_warnings(path: &Path) -> Result<(Scene, Vec<String>), SceneError> {
+/// A scene file with its animation and the warnings of the files it places (`[[gltf]]`
+/// assets): the scene is the first frame of the file's range, and
+/// [`Animation::scene_at`] gives the others.
+pub fn load_animated_file(path: &Path) -> Result<(Scene, Animation, Vec<String>), SceneError> {
     let name = path.display().to_string();
     let mut bytes = Vec::new();
     std::io::Read::read_to_end(&mut super::limits::open_regular(path, "scene")?, &mut bytes)
         .map_err(|e| SceneError::File { file: name.clone(), message: format!("cannot read the scene: {e}") })?;
     let src = super::limits::utf8(bytes, &name)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    load_str_with_warnings(&src, &name, base)
+    load_animated_str(&src, &name, base)
 }
 
 /// Parses a scene from text. `name` is used in messages; relative paths in the scene
-/// are resolved against `base_dir`.
+/// are resolved against `base_dir`. An animated scene gives its first frame.
 pub fn load_str(src: &str, name: &str, base_dir: &Path) -> Result<Scene, SceneError> {
-    load_str_with_warnings(src, name, base_dir).map(|(scene, _)| scene)
+    load_animated_str(src, name, base_dir).map(|(scene, _, _)| scene)
 }
 
-fn load_str_with_warnings(src: &str, name: &str, base_dir: &Path) -> Result<(Scene, Vec<String>), SceneError> {
+/// [`load_animated_file`] from text.
+pub fn load_animated_str(
+    src: &str,
+    name: &str,
+    base_dir: &Path,
+) -> Result<(Scene, Animation, Vec<String>), SceneError> {
     let ctx = Ctx { name, src, base_dir, images: Default::default(), warnings: Default::default() };
     let desc: FileDesc = toml::from_str(src).map_err(|e| ctx.toml_error(&e))?;
-    let scene = ctx.build(desc)?;
-    Ok((scene, ctx.warnings.into_inner()))
+    let (scene, animation) = ctx.build(desc)?;
+    let scene = if animation.is_static() { scene } else { animation.scene_at(&scene, animation.first)? };
+    Ok((scene, animation, ctx.warnings.into_inner()))
 }
 
 type V3 = [f32; 3];
@@ -118,6 +131,9 @@ struct CameraDesc {
     fov: S<f32>,
     width: Option<S<i64>>,
     height: Option<S<i64>>,
+    /// Keyframes of `position`, `look_at` and `fov` ([`keys`]).
+    keys: Keys<CameraKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -130,6 +146,8 @@ struct SettingsDesc {
     cutoff: Option<S<f32>>,
     /// `"linear"` (default) or `"srgb"`: how 8- and 16-bit output files encode colour.
     color: Option<S<String>>,
+    /// `[first, last]`: the frames an animation is meant to be seen over.
+    frames: Option<S<[i64; 2]>>,
 }
 
 #[derive(Deserialize)]
@@ -197,6 +215,8 @@ struct SphereDesc {
     radius: S<f32>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -207,6 +227,8 @@ struct QuadDesc {
     edge_v: S<V3>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -215,6 +237,8 @@ struct PolygonDesc {
     vertices: S<Vec<V3>>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -227,6 +251,8 @@ struct CylinderDesc {
     caps: Option<bool>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -243,6 +269,8 @@ struct ConeDesc {
     top_cap: Option<S<bool>>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -260,6 +288,8 @@ struct MeshDesc {
     smooth: Option<bool>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 #[derive(Deserialize)]
@@ -284,6 +314,8 @@ struct TriangleDesc {
     vertices: S<[V3; 3]>,
     material: S<MaterialRef>,
     transform: Option<S<TransformDesc>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 /// What the checks need: the text (to turn byte offsets into lines) and where to find
@@ -399,14 +431,25 @@ impl Ctx<'_> {
         }
     }
 
-    fn build(&self, desc: FileDesc) -> R<Scene> {
+    /// The scene with every table's own values, and what its keys animate.
+    fn build(&self, desc: FileDesc) -> R<(Scene, Animation)> {
         let camera = self.camera(&desc.camera)?;
         let mut scene = Scene::new(camera);
+        let mut range = None;
         if let Some(s) = &desc.settings {
             scene.settings = self.settings(s.get_ref())?;
+            range = self.frame_range(s.get_ref())?;
         }
-        for l in &desc.light {
-            scene.add_light(self.light(l)?);
+        let mut anim = Animation {
+            file: self.name.to_owned(),
+            camera: self.camera_keys(desc.camera.get_ref(), &camera, range)?,
+            ..Default::default()
+        };
+        for (i, l) in desc.light.iter().enumerate() {
+            let light = self.light(l)?;
+            let d = l.get_ref();
+            anim.lights.extend(self.light_keys(i, &d.keys, &d.interpolation, &light, range)?);
+            scene.add_light(light);
         }
         let mut names = HashMap::new();
         for (name, m) in &desc.material {
@@ -423,12 +466,16 @@ impl Ctx<'_> {
                 MaterialRef::Inline(d) => Ok(scene.add_material(self.material(d)?)),
             }
         };
+        let objects = std::cell::RefCell::new(Vec::new());
         let place = |scene: &mut Scene,
                      shape: Shape,
                      material: &S<MaterialRef>,
-                     transform: &Option<S<TransformDesc>>|
+                     transform: &Option<S<TransformDesc>>,
+                     (keys, interpolation): (&Keys<ObjectKey>, &Option<S<String>>)|
          -> R<()> {
             let material = resolve(scene, material)?;
+            let index = scene.objects.len();
+            objects.borrow_mut().extend(self.object_keys(index, &shape, transform, keys, interpolation, range)?);
             let shape = match transform {
                 None => shape,
                 Some(t) => {
@@ -443,7 +490,7 @@ impl Ctx<'_> {
         for s in &desc.sphere {
             let s = s.get_ref();
             let shape = Sphere::new(self.vec3(&s.center, "center")?, self.positive(&s.radius, "radius")?);
-            place(&mut scene, shape.into(), &s.material, &s.transform)?;
+            place(&mut scene, shape.into(), &s.material, &s.transform, (&s.keys, &s.interpolation))?;
         }
         for q in &desc.quad {
             let q = q.get_ref();
@@ -452,7 +499,7 @@ impl Ctx<'_> {
                 return Err(self.err(&q.edge_v, "edge_v", "is parallel to edge_u: the quad has no area"));
             }
             let shape = Quad::new(self.vec3(&q.corner, "corner")?, u, v);
-            place(&mut scene, shape.into(), &q.material, &q.transform)?;
+            place(&mut scene, shape.into(), &q.material, &q.transform, (&q.keys, &q.interpolation))?;
         }
         for p in &desc.polygon {
             let p = p.get_ref();
@@ -464,7 +511,7 @@ impl Ctx<'_> {
                 vertices.push(Vec3::from_array(*v));
             }
             let shape = self.polygon(&p.vertices, vertices)?;
-            place(&mut scene, shape, &p.material, &p.transform)?;
+            place(&mut scene, shape, &p.material, &p.transform, (&p.keys, &p.interpolation))?;
         }
         for c in &desc.cylinder {
             let c = c.get_ref();
@@ -475,7 +522,7 @@ impl Ctx<'_> {
                 self.positive(&c.height, "height")?,
                 c.caps.unwrap_or(true),
             );
-            place(&mut scene, shape.into(), &c.material, &c.transform)?;
+            place(&mut scene, shape.into(), &c.material, &c.transform, (&c.keys, &c.interpolation))?;
         }
         for c in &desc.cone {
             let c = c.get_ref();
@@ -495,7 +542,7 @@ impl Ctx<'_> {
                 c.cap.unwrap_or(true),
                 top_radius > 0.0 && c.top_cap.as_ref().is_none_or(|t| *t.get_ref()),
             );
-            place(&mut scene, shape.into(), &c.material, &c.transform)?;
+            place(&mut scene, shape.into(), &c.material, &c.transform, (&c.keys, &c.interpolation))?;
         }
         for t in &desc.triangle {
             let t = t.get_ref();
@@ -507,13 +554,19 @@ impl Ctx<'_> {
             if (b - a).cross(c - a).length_squared() <= 0.0 {
                 return Err(self.err(&t.vertices, "vertices", "the triangle has no area (collinear vertices)"));
             }
-            place(&mut scene, Shape::Triangle(Triangle::new(a, b, c)), &t.material, &t.transform)?;
+            place(
+                &mut scene,
+                Shape::Triangle(Triangle::new(a, b, c)),
+                &t.material,
+                &t.transform,
+                (&t.keys, &t.interpolation),
+            )?;
         }
         let mut named = HashMap::new();
         for m in &desc.mesh {
             let mesh = self.mesh(m)?;
             let m = m.get_ref();
-            place(&mut scene, mesh.into(), &m.material, &m.transform)?;
+            place(&mut scene, mesh.into(), &m.material, &m.transform, (&m.keys, &m.interpolation))?;
             let placed = m.transform.as_ref().map_or(Ok(glam::Affine3A::IDENTITY), |t| self.transform(t.get_ref()))?;
             let k = scene.objects.len();
             self.name_asset(&mut named, &m.name, k - 1..k, placed)?;
@@ -536,7 +589,13 @@ impl Ctx<'_> {
             self.instance(&mut scene, &named, i, &resolve)?;
         }
         scene.labels = self.labels(&desc);
-        Ok(scene)
+        anim.objects = objects.into_inner();
+        let last_key = anim.lights.iter().map(|l| l.position.span().1);
+        let last_key = last_key.chain(anim.objects.iter().filter_map(|o| o.span()).map(|s| s.1));
+        let c = &anim.camera;
+        let last_key = last_key.chain([&c.position, &c.look_at, &c.fov].into_iter().flatten().map(|t| t.span().1));
+        (anim.first, anim.last) = range.unwrap_or((0, last_key.max().unwrap_or(0)));
+        Ok((scene, anim))
     }
 
     /// A mesh from its OBJ file or from the arrays written inline.
@@ -608,22 +667,8 @@ impl Ctx<'_> {
     }
 
     fn transform(&self, t: &TransformDesc) -> R<glam::Affine3A> {
-        let translate = t.translate.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "translate"))?;
-        let rotate = t.rotate.as_ref().map_or(Ok(Vec3::ZERO), |v| self.vec3(v, "rotate"))?;
-        let scale = match &t.scale {
-            None => Vec3::ONE,
-            Some(s) => {
-                let v = match s.get_ref() {
-                    Scale::Uniform(k) => Vec3::splat(*k),
-                    Scale::Axes(a) => Vec3::from_array(*a),
-                };
-                if !v.is_finite() || v.cmpeq(Vec3::ZERO).any() {
-                    return Err(self.err(s, "scale", format!("must be finite and non-zero (got {v})")));
-                }
-                v
-            }
-        };
-        Ok(geometry::affine(translate, rotate, scale))
+        let [translate, rotate, scale] = self.transform_parts(t)?;
+        Ok(geometry::affine(translate.unwrap_or(Vec3::ZERO), rotate.unwrap_or(Vec3::ZERO), scale.unwrap_or(Vec3::ONE)))
     }
 
     fn camera(&self, c: &S<CameraDesc>) -> R<Camera> {
@@ -719,149 +764,6 @@ impl Ctx<'_> {
             ));
         }
         Ok(m)
-    }
-
-    fn texture(&self, t: &TextureDesc) -> R<Texture> {
-        let kind = t.kind.get_ref().as_str();
-        // Fields each kind takes; any other one set is a mistake worth reporting.
-        let allowed: &[&str] = match kind {
-            "stripes" => &["colors", "axis", "width"],
-            "checker" => &["colors", "size", "offset"],
-            "image" => &["path", "scale", "offset", "color_space"],
-            "planet" => &["seed", "resolution", "scale", "offset"],
-            other => {
-                return Err(self.err(
-                    &t.kind,
-                    "kind",
-                    format!("unknown texture kind {other:?} (expected stripes, checker, image or planet)"),
-                ));
-            }
-        };
-        let present: [(&str, Option<usize>); 10] = [
-            ("colors", t.colors.as_ref().map(|v| v.span().start)),
-            ("axis", t.axis.as_ref().map(|v| v.span().start)),
-            ("width", t.width.as_ref().map(|v| v.span().start)),
-            ("size", t.size.as_ref().map(|v| v.span().start)),
-            ("offset", t.offset.as_ref().map(|v| v.span().start)),
-            ("scale", t.scale.as_ref().map(|v| v.span().start)),
-            ("path", t.path.as_ref().map(|v| v.span().start)),
-            ("seed", t.seed.as_ref().map(|v| v.span().start)),
-            ("resolution", t.resolution.as_ref().map(|v| v.span().start)),
-            ("color_space", t.color_space.as_ref().map(|v| v.span().start)),
-        ];
-        for (field, at) in present {
-            if let Some(at) = at
-                && !allowed.contains(&field)
-            {
-                return Err(self.error_at(at, field, format!("does not apply to a {kind} texture")));
-            }
-        }
-        let required = |present: bool, field: &str| -> R<()> {
-            if present { Ok(()) } else { Err(self.err(&t.kind, field, format!("a {kind} texture needs `{field}`"))) }
-        };
-        let colors = || -> R<[Color; 2]> {
-            required(t.colors.is_some(), "colors")?;
-            let c = t.colors.as_ref().expect("checked");
-            let [a, b] = *c.get_ref();
-            let check = |v: V3| {
-                let v = Vec3::from_array(v);
-                if v.is_finite() && v.min_element() >= 0.0 {
-                    Ok(v)
-                } else {
-                    Err(self.err(c, "colors", "colours must be finite and >= 0"))
-                }
-            };
-            Ok([check(a)?, check(b)?])
-        };
-        let vec2 = |v: &Option<S<Vec<f32>>>, field: &str, default: Vec2| -> R<Vec2> {
-            match v {
-                None => Ok(default),
-                Some(s) => match s.get_ref().as_slice() {
-                    [a, b] if a.is_finite() && b.is_finite() => Ok(Vec2::new(*a, *b)),
-                    _ => Err(self.err(s, field, "must be two finite numbers [u, v]")),
-                },
-            }
-        };
-        match kind {
-            "stripes" => {
-                required(t.axis.is_some(), "axis")?;
-                required(t.width.is_some(), "width")?;
-                let axis = crate::math::unit_or(self.direction(t.axis.as_ref().expect("checked"), "axis")?, Vec3::Y);
-                let width = self.positive(t.width.as_ref().expect("checked"), "width")?;
-                Ok(Texture::Stripes { axis, width, colors: colors()? })
-            }
-            "checker" => {
-                required(t.size.is_some(), "size")?;
-                let size = self.positive(t.size.as_ref().expect("checked"), "size")?;
-                let offset = match &t.offset {
-                    None => Vec3::ZERO,
-                    Some(s) => match s.get_ref().as_slice() {
-                        [a, b, c] if [a, b, c].iter().all(|x| x.is_finite()) => Vec3::new(*a, *b, *c),
-                        _ => return Err(self.err(s, "offset", "must be three finite numbers [x, y, z]")),
-                    },
-                };
-                Ok(Texture::Checker { size, offset, colors: colors()? })
-            }
-            "image" => {
-                required(t.path.is_some(), "path")?;
-                let p = t.path.as_ref().expect("checked");
-                let path = self.base_dir.join(p.get_ref());
-                let encoding = match &t.color_space {
-                    None => ColorEncoding::Linear,
-                    Some(c) => ColorEncoding::parse(c.get_ref()).ok_or_else(|| {
-                        self.err(c, "color_space", format!("expected \"linear\" or \"srgb\", got {:?}", c.get_ref()))
-                    })?,
-                };
-                let map =
-                    self.image(&path, encoding).map_err(|e| self.err(p, "path", format!("{}: {e}", path.display())))?;
-                Ok(Texture::Image {
-                    map,
-                    scale: vec2(&t.scale, "scale", Vec2::ONE)?,
-                    offset: vec2(&t.offset, "offset", Vec2::ZERO)?,
-                })
-            }
-            _ => {
-                let seed = t.seed.as_ref().map_or(Ok(1), |s| self.int_in(s, "seed", 0, u32::MAX as i64, ""))?;
-                let [w, h] = match &t.resolution {
-                    None => [1024, 512],
-                    Some(r) => {
-                        let [w, h] = *r.get_ref();
-                        if !(1..=MAX_RESOLUTION).contains(&w) || !(1..=MAX_RESOLUTION).contains(&h) {
-                            return Err(self.err(
-                                r,
-                                "resolution",
-                                format!("sides must be between 1 and {MAX_RESOLUTION}"),
-                            ));
-                        }
-                        let need = (w * h) as u64 * crate::texture::TEXEL_BYTES;
-                        if need > crate::texture::MAX_TEXTURE_BYTES {
-                            let message = format!(
-                                "a {w}x{h} map needs about {:.1} GiB; the limit is {:.2} GiB (8192x8192)",
-                                need as f64 / (1u64 << 30) as f64,
-                                crate::texture::MAX_TEXTURE_BYTES as f64 / (1u64 << 30) as f64
-                            );
-                            return Err(self.err(r, "resolution", message));
-                        }
-                        [w as u32, h as u32]
-                    }
-                };
-                Ok(Texture::Image {
-                    map: Arc::new(planet(w, h, seed as u64)),
-                    scale: vec2(&t.scale, "scale", Vec2::ONE)?,
-                    offset: vec2(&t.offset, "offset", Vec2::ZERO)?,
-                })
-            }
-        }
-    }
-
-    fn image(&self, path: &Path, encoding: ColorEncoding) -> Result<Arc<ImageMap>, crate::texture::TextureError> {
-        let key = (path.to_owned(), encoding);
-        if let Some(m) = self.images.borrow().get(&key) {
-            return Ok(m.clone());
-        }
-        let map = Arc::new(ImageMap::load_as(path, encoding)?);
-        self.images.borrow_mut().insert(key, map.clone());
-        Ok(map)
     }
 }
 

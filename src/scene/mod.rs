@@ -11,6 +11,7 @@
 //! assert_eq!(image.width(), 64);
 //! ```
 
+pub mod animation;
 mod error;
 pub mod frame;
 pub mod generate;
@@ -21,8 +22,11 @@ pub mod nff;
 pub mod obj;
 pub mod save;
 
+pub use animation::Animation;
 pub use error::SceneError;
-pub use load::{DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_file, load_str};
+pub use load::{
+    DEFAULT_SCENE, DEFAULT_SCENE_NAME, MAX_RESOLUTION, load_animated_file, load_animated_str, load_file, load_str,
+};
 
 use crate::camera::Camera;
 use crate::geometry::Shape;
@@ -68,18 +72,22 @@ pub struct Loaded {
     pub notes: Vec<String>,
     /// For NFF: what the file held and its size.
     pub nff: Option<nff::Counts>,
+    /// What moves, for a TOML file with keys ([`animation`]); `scene` is then its first
+    /// frame.
+    pub animation: Option<Animation>,
 }
 
 /// Reads a scene file in the given format.
 pub fn load_path(path: &Path, format: Format) -> Result<Loaded, SceneError> {
     match format {
         Format::Toml => {
-            let (scene, warnings) = load::load_file_with_warnings(path)?;
-            Ok(Loaded { scene, warnings, notes: Vec::new(), nff: None })
+            let (scene, animation, warnings) = load::load_animated_file(path)?;
+            let animation = (!animation.is_static()).then_some(animation);
+            Ok(Loaded { scene, warnings, notes: Vec::new(), nff: None, animation })
         }
         Format::Nff => {
             let n = nff::load_nff(path)?;
-            Ok(Loaded { scene: n.scene, warnings: n.warnings, notes: Vec::new(), nff: Some(n.counts) })
+            Ok(Loaded { scene: n.scene, warnings: n.warnings, notes: Vec::new(), nff: Some(n.counts), animation: None })
         }
         Format::Obj => {
             let mesh = obj::load_obj(path, true)?;
@@ -89,7 +97,7 @@ pub fn load_path(path: &Path, format: Format) -> Result<Loaded, SceneError> {
             scene.add(mesh, m);
             let mut notes = Vec::new();
             frame::complete(&mut scene, false, &path.display().to_string(), &mut notes);
-            Ok(Loaded { scene, warnings: Vec::new(), notes, nff: None })
+            Ok(Loaded { scene, warnings: Vec::new(), notes, nff: None, animation: None })
         }
         Format::Gltf => self::gltf::load_gltf(path),
     }

@@ -1,9 +1,10 @@
 //! The `whitted` command line: argument parsing, progress and messages. The rendering
 //! itself lives in the library.
 
+mod frames;
 mod options;
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -12,7 +13,7 @@ use std::time::{Duration, Instant};
 use whitted::accel::AccelKind;
 use whitted::film::{ColorEncoding, OutputOptions, PendingOutput};
 use whitted::render::Renderer;
-use whitted::scene::{self, Loaded, MAX_RESOLUTION};
+use whitted::scene::{self, Loaded, MAX_RESOLUTION, Scene};
 
 #[derive(Parser)]
 #[command(name = "whitted", version, about = "A fast recursive (Whitted-style) ray tracer")]
@@ -119,9 +120,19 @@ struct RenderArgs {
     #[arg(long, value_enum)]
     format: Option<Format>,
     /// Output image: .png, .jpg, .exr or .hdr; by default the scene's name with .png,
-    /// in the current folder.
+    /// in the current folder. With --frames, a pattern whose run of # becomes the
+    /// zero-padded frame number (out/frame-####.png; by default NAME-####.png).
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Render the frames FIRST to LAST, both included (0..119 is 120 frames), of an
+    /// animated scene (keys in its TOML), in order. Frames outside the scene's
+    /// `[settings] frames` are allowed: every value holds beyond its keys.
+    #[arg(long, value_name = "FIRST..LAST", value_parser = frames::parse_range, conflicts_with = "frame")]
+    frames: Option<(u32, u32)>,
+    /// Render frame N of an animated scene (default: the first of its `[settings] frames`);
+    /// a run of # in the output name becomes the frame number.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(0..=scene::animation::MAX_FRAME as i64))]
+    frame: Option<u32>,
     /// How PNG and JPEG files encode colour (default: the scene's `[settings] color`,
     /// else linear). EXR and HDR are always linear.
     #[arg(long, value_parser = ["linear", "srgb"])]
@@ -242,7 +253,10 @@ fn load_scene(path: Option<&Path>, format: Option<Format>) -> Result<(Loaded, St
         None => {
             let scene = scene::load_str(scene::DEFAULT_SCENE, scene::DEFAULT_SCENE_NAME, Path::new("scenes"))
                 .map_err(|e| e.to_string())?;
-            Ok((Loaded { scene, warnings: Vec::new(), notes: Vec::new(), nff: None }, "room".to_owned()))
+            Ok((
+                Loaded { scene, warnings: Vec::new(), notes: Vec::new(), nff: None, animation: None },
+                "room".to_owned(),
+            ))
         }
     }
 }
@@ -264,35 +278,16 @@ fn view(_: ViewArgs) -> Result<(), String> {
         .to_owned())
 }
 
-fn render(args: RenderArgs) -> Result<(), String> {
-    let load_start = Instant::now();
-    let (loaded, stem) = load_scene(args.scene.as_deref(), args.format)?;
-    let load_time = load_start.elapsed();
-    let scene = &loaded.scene;
-    if !args.quiet {
-        for w in loaded.warnings.iter().chain(&scene.warnings()) {
-            eprintln!("warning: {w}");
-        }
-        for n in &loaded.notes {
-            eprintln!("note: {n}");
-        }
-    }
-    let output = args.output.unwrap_or_else(|| PathBuf::from(format!("{stem}.png")));
-    // Claim the output before rendering, so a bad path fails in milliseconds, not after.
-    let color = args.color.as_deref().and_then(ColorEncoding::parse).unwrap_or(scene.settings.color);
-    let pending =
-        PendingOutput::create_with(&output, OutputOptions { color, bits: args.bits }).map_err(|e| e.to_string())?;
+/// The colour encoding of 8- and 16-bit files: `--color`, else the scene's.
+fn color(args: &RenderArgs, scene: &Scene) -> ColorEncoding {
+    args.color.as_deref().and_then(ColorEncoding::parse).unwrap_or(scene.settings.color)
+}
 
+/// A renderer of `scene` with the command line's size, sampling and threads.
+fn renderer<'s>(args: &RenderArgs, scene: &'s Scene) -> Result<Renderer<'s>, String> {
     let mut renderer = Renderer::new(scene).map_err(|e| e.to_string())?;
     let camera = (scene.camera.width, scene.camera.height);
     let (w, h) = options::image_size(camera, args.width, args.height, args.scale, MAX_RESOLUTION as u32)?;
-    let bytes = options::image_bytes(w, h);
-    if !args.quiet && bytes > 1 << 30 {
-        eprintln!(
-            "warning: a {w}x{h} image needs about {:.1} GiB of memory (its film and the PNG being written)",
-            bytes as f64 / (1u64 << 30) as f64
-        );
-    }
     renderer = renderer.size(w, h).accel(args.accel.into());
     if let Some(n) = args.spp {
         renderer = renderer.spp(n);
@@ -308,6 +303,71 @@ fn render(args: RenderArgs) -> Result<(), String> {
     }
     if let Some([x0, y0, x1, y1]) = args.region {
         renderer = renderer.region(x0, y0, x1, y1).map_err(|e| format!("--region: {e}"))?;
+    }
+    Ok(renderer)
+}
+
+fn render(args: RenderArgs) -> Result<(), String> {
+    let stem = args
+        .scene
+        .as_deref()
+        .map_or("room".into(), |p| p.file_stem().map_or("render".into(), |s| s.to_string_lossy().into_owned()));
+    let hashes = if args.frames.is_some() { "-####" } else { "" };
+    let output = args.output.clone().unwrap_or_else(|| PathBuf::from(format!("{stem}{hashes}.png")));
+    if args.frames.is_some() && frames::frame_path(&output, 0).is_none() {
+        let message = format!(
+            "--frames needs an output name with a run of # for the frame number, such as out/frame-####.png (got {})",
+            output.display()
+        );
+        let mut cli = Cli::command();
+        cli.build();
+        let render = cli.find_subcommand_mut("render").expect("the render subcommand exists");
+        render.error(clap::error::ErrorKind::ArgumentConflict, message).exit();
+    }
+    let load_start = Instant::now();
+    let (loaded, _) = load_scene(args.scene.as_deref(), args.format)?;
+    let load_time = load_start.elapsed();
+    if !args.quiet {
+        for w in loaded.warnings.iter().chain(&loaded.scene.warnings()) {
+            eprintln!("warning: {w}");
+        }
+        for n in &loaded.notes {
+            eprintln!("note: {n}");
+        }
+    }
+    if let Some(range) = args.frames {
+        return frames::render_frames(&args, &loaded, &output, range, load_start);
+    }
+    // One frame: the one asked for, else an animation's first.
+    let frame = args.frame.or(loaded.animation.as_ref().map(|a| a.first));
+    let at_frame;
+    let scene = match (&loaded.animation, frame) {
+        (Some(anim), Some(f)) => {
+            if args.frame.is_none() && !args.quiet {
+                eprintln!(
+                    "note: the scene is animated (frames {0}..{1}): rendering frame {0}; --frames {0}..{1} renders them all",
+                    anim.first, anim.last
+                );
+            }
+            at_frame = anim.scene_at(&loaded.scene, f).map_err(|e| e.to_string())?;
+            &at_frame
+        }
+        _ => &loaded.scene,
+    };
+    let output = frame.and_then(|f| frames::frame_path(&output, f)).unwrap_or(output);
+    // Claim the output before rendering, so a bad path fails in milliseconds, not after.
+    let pending = PendingOutput::create_with(&output, OutputOptions { color: color(&args, scene), bits: args.bits })
+        .map_err(|e| e.to_string())?;
+
+    let renderer = renderer(&args, scene)?;
+    let camera = (scene.camera.width, scene.camera.height);
+    let (w, h) = options::image_size(camera, args.width, args.height, args.scale, MAX_RESOLUTION as u32)?;
+    let bytes = options::image_bytes(w, h);
+    if !args.quiet && bytes > 1 << 30 {
+        eprintln!(
+            "warning: a {w}x{h} image needs about {:.1} GiB of memory (its film and the PNG being written)",
+            bytes as f64 / (1u64 << 30) as f64
+        );
     }
 
     let show_progress = !args.quiet && std::io::stderr().is_terminal();
@@ -398,6 +458,9 @@ fn convert(args: ConvertArgs) -> Result<(), String> {
     if !args.quiet {
         for w in loaded.warnings.iter().chain(&loaded.scene.warnings()) {
             eprintln!("warning: {w}");
+        }
+        if let Some(a) = &loaded.animation {
+            eprintln!("warning: the scene's keys are not written: the TOML holds frame {} of its animation", a.first);
         }
     }
     let note = format!("Converted from {} by whitted convert.", args.input.display());

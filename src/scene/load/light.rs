@@ -21,6 +21,9 @@ pub(super) struct LightDesc {
     intensity: Option<S<f32>>,
     /// `[constant, linear, quadratic]`.
     attenuation: Option<S<V3>>,
+    /// Keyframes of `position` (point and spot lights).
+    pub(super) keys: super::Keys<super::LightKey>,
+    pub(super) interpolation: Option<S<String>>,
 }
 
 #[derive(Clone, Copy, PartialEq)]
