@@ -117,3 +117,28 @@ fn instances_in_a_scene_file_render_as_the_mesh_written_again() {
     assert!(lit * 10 > a.width() * a.height(), "only {lit} pixels lit");
     assert!(off * 100 < a.width() * a.height(), "{off} pixels differ by more than two levels");
 }
+
+/// A named glTF asset placed again: each of its meshes comes again, shared, moved by the
+/// instance's transform in place of the asset's.
+#[test]
+fn a_gltf_asset_placed_again_brings_each_of_its_meshes() {
+    let model = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/model.glb");
+    let text = format!(
+        "[camera]\nposition = [0, 3, 12]\nlook_at = [0, 0, 0]\nfov = 50\nwidth = 64\nheight = 40\n\n\
+         [[gltf]]\nname = \"still life\"\nfile = {:?}\ntransform = {{ translate = [-3, 0, 0] }}\n\n\
+         [[instance]]\nof = \"still life\"\ntransform = {{ translate = [3, 0, 0] }}\n",
+        model.display().to_string()
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let scene = whitted::scene::load_str(&text, "test.toml", dir.path()).unwrap();
+    let meshes = scene.objects.iter().filter(|o| matches!(o.shape, Shape::Mesh(_))).count();
+    let placed: Vec<_> = scene.objects.iter().filter(|o| matches!(o.shape, Shape::Transformed(_))).collect();
+    assert!(meshes >= 4 && placed.len() == meshes, "{meshes} meshes, {} instances", placed.len());
+    // Each instance lies 6 to the right of its mesh, wherever the node tree put it.
+    for (o, i) in scene.objects.iter().take(meshes).zip(placed) {
+        let (a, b) = (o.shape.bounds(), i.shape.bounds());
+        let moved = (b.min - a.min).abs().max((b.max - a.max).abs());
+        assert!((b.min.x - a.min.x - 6.0).abs() < 1e-3 && moved.y < 1e-3 && moved.z < 1e-3, "{a:?} -> {b:?}");
+        assert_eq!(o.material, i.material, "an instance keeps the asset's materials");
+    }
+}
