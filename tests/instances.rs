@@ -142,3 +142,37 @@ fn a_gltf_asset_placed_again_brings_each_of_its_meshes() {
         assert_eq!(o.material, i.material, "an instance keeps the asset's materials");
     }
 }
+
+/// An instance with keys: its first and last frames are the scene with the keys'
+/// transforms written in, and it stays an instance (shared triangles) in between.
+#[test]
+fn keyed_instances_move_as_their_keys_say() {
+    let head = "[camera]\nposition = [0, 2, 8]\nlook_at = [0, 0, 0]\nfov = 50\nwidth = 48\nheight = 32\n\n\
+                [[light]]\nposition = [3, 5, 4]\n\n[[mesh]]\nname = \"tri\"\n\
+                positions = [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]\n\
+                triangles = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]\nsmooth = false\n\
+                material = { color = [0.9, 0.6, 0.3] }\ntransform = { translate = [-2, 0, 0] }\n\n";
+    // Each part named by both keys: a part one key leaves out holds the other key's value.
+    let (a, b) = (
+        "{ translate = [1, 0, 0], rotate = [0, 0, 0], scale = 1 }",
+        "{ translate = [2, 1, 0], rotate = [0, 90, 0], scale = 1.5 }",
+    );
+    let keyed = format!(
+        "{head}[[instance]]\nof = \"tri\"\ninterpolation = \"smooth\"\n\
+         keys = [{{ frame = 0, transform = {a} }}, {{ frame = 5, transform = {b} }}]\n"
+    );
+    let fixed = |t: &str| format!("{head}[[instance]]\nof = \"tri\"\ntransform = {t}\n");
+    let dir = std::path::Path::new(".");
+    let (scene, anim, _) = whitted::scene::load_animated_str(&keyed, "keyed.toml", dir).unwrap();
+    for (frame, t) in [(0, a), (5, b)] {
+        let want = whitted::scene::load_str(&fixed(t), "fixed.toml", dir).unwrap();
+        let got = anim.scene_at(&scene, frame).unwrap();
+        assert_eq!(got.objects.len(), want.objects.len());
+        for (x, y) in got.objects.iter().zip(&want.objects) {
+            assert_eq!(x.shape, y.shape, "frame {frame}");
+        }
+    }
+    let mid = anim.scene_at(&scene, 2).unwrap();
+    assert!(matches!(mid.objects[1].shape, Shape::Transformed(_)), "{:?}", mid.objects[1].shape);
+    assert!(anim.moves_geometry(0, 2), "the instance moves");
+}

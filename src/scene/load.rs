@@ -586,7 +586,7 @@ impl Ctx<'_> {
             self.name_asset(&mut named, &g.name, first..scene.objects.len(), placed)?;
         }
         for i in &desc.instance {
-            self.instance(&mut scene, &named, i, resolve)?;
+            self.instance(&mut scene, &named, i, resolve, (&mut objects.borrow_mut(), range))?;
         }
         scene.labels = self.labels(&desc);
         anim.objects = objects.into_inner();

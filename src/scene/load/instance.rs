@@ -10,6 +10,7 @@
 //! of = "ball"
 //! transform = { translate = [3, 0, 0], rotate = [0, 45, 0] }
 //! material = "gold"        # optional: else the asset's own materials
+//! keys = [{ frame = 0, transform = { rotate = [0, 0, 0] } }, { frame = 60, transform = { rotate = [0, 360, 0] } }]
 //! ```
 //! An instance places the asset as if it were written again with the instance's
 //! `transform` in place of its own. Its triangles are shared, not copied
@@ -30,6 +31,8 @@ pub(super) struct InstanceDesc {
     of: S<String>,
     transform: Option<S<TransformDesc>>,
     material: Option<S<MaterialRef>>,
+    keys: Keys<ObjectKey>,
+    interpolation: Option<S<String>>,
 }
 
 impl Ctx<'_> {
@@ -53,14 +56,15 @@ impl Ctx<'_> {
         Ok(())
     }
 
-    /// Adds the objects of instance `i`; `resolve` turns a material reference into a
-    /// material of the scene.
+    /// Adds the objects of instance `i`, and to `keyed` their keys if it has any;
+    /// `resolve` turns a material reference into a material of the scene.
     pub(super) fn instance(
         &self,
         scene: &mut Scene,
         named: &HashMap<String, Named>,
         i: &S<InstanceDesc>,
         resolve: impl FnOnce(&mut Scene, &S<MaterialRef>) -> R<MaterialId>,
+        (keyed, range): (&mut Vec<crate::scene::animation::ObjectKeys>, Option<(u32, u32)>),
     ) -> R<()> {
         let i = i.get_ref();
         let Some(asset) = named.get(i.of.get_ref()) else {
@@ -82,13 +86,16 @@ impl Ctx<'_> {
             Some(m) => Some(resolve(scene, m)?),
             None => None,
         };
-        // From where the asset lies to where the instance puts it.
-        let m = placed * asset.placed.inverse();
         for k in asset.objects.clone() {
             let o = &scene.objects[k];
             let Shape::Mesh(mesh) = &o.shape else { continue };
-            let shape = geometry::instance(mesh, &m);
+            // The asset's mesh back where it was made: the instance's transform, keyed
+            // or not, then places it as a transform places any shape (sharing it).
+            let base = geometry::instance(mesh, &asset.placed.inverse());
             let material = material.unwrap_or(o.material);
+            let index = scene.objects.len();
+            keyed.extend(self.object_keys(index, &base, &i.transform, &i.keys, &i.interpolation, range)?);
+            let shape = geometry::transform(base, &placed).map_err(|e| self.err(&i.of, "of", e.to_string()))?;
             scene.objects.push(Object { shape, material });
         }
         Ok(())
