@@ -98,7 +98,8 @@ fn a_huge_image_is_announced_with_its_memory() {
     assert!(!e.contains("GiB"), "{e}");
     let tmp = tempfile::tempdir().unwrap();
     let png = tmp.path().join("big.png");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_whitted"))
+    // Started as the other tests start it (under CI's emulator where there is one).
+    let mut child = common::whitted_command()
         .args(["render", "--width", "16384", "--height", "16384", "--spp", "1", "-o", png.to_str().unwrap()])
         .stderr(std::process::Stdio::piped())
         .spawn()

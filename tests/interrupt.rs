@@ -2,6 +2,8 @@
 //! existing image of the same name untouched.
 #![cfg(unix)]
 
+mod common;
+
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -18,7 +20,7 @@ fn interrupt_with(signal: i32) {
     let out = tmp.path().join("room.png");
     std::fs::write(&out, b"the previous image").unwrap();
     // Long enough to be interrupted whatever the machine: 2000x2000 pixels, 64 samples.
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_whitted"))
+    let mut child = common::whitted_command()
         .args(["render", "--width", "2000", "--height", "2000", "--spp", "64", "-q", "-o"])
         .arg(&out)
         .spawn()
@@ -55,7 +57,7 @@ fn sigterm_removes_the_temporary_file() {
 fn an_interrupted_run_of_frames_keeps_the_finished_ones_whole() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/turntable.toml");
-    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_whitted"))
+    let mut child = common::whitted_command()
         .args(["render", "--frames", "0..100", "--width", "300", "--spp", "16", "-q", "-o"])
         .arg(tmp.path().join("f-###.png"))
         .arg(&scene)

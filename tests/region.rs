@@ -1,8 +1,9 @@
 //! Region rendering: any rectangle renders exactly as that part of the full image, from
 //! the library and through `whitted render --region`.
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
 use whitted::prelude::*;
 use whitted::scene;
 
@@ -61,7 +62,7 @@ fn the_cli_writes_just_the_region() {
         let mut args =
             vec!["render", "--width", "64", "--height", "48", "--spp", "4", "-q", "-o", out.to_str().unwrap()];
         args.extend_from_slice(extra);
-        Command::new(env!("CARGO_BIN_EXE_whitted")).args(&args).output().unwrap()
+        common::whitted_command().args(&args).output().unwrap()
     };
     let (full, part) = (tmp.path().join("full.png"), tmp.path().join("part.png"));
     assert!(run(&[], &full).status.success());
