@@ -70,6 +70,14 @@ impl<T> std::ops::DerefMut for Zeroed<T> {
     }
 }
 
+impl<T> Zeroed<T> {
+    /// The whole buffer and the index where the values start: hands the memory on
+    /// (to numpy, say) without copying it.
+    pub fn into_parts(self) -> (Vec<T>, usize) {
+        (self.buf, self.start)
+    }
+}
+
 /// A copy holds only the values.
 impl<T: Clone> Clone for Zeroed<T> {
     fn clone(&self) -> Self {

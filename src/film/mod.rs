@@ -2,7 +2,7 @@
 
 pub mod output;
 
-pub use output::{ColorEncoding, Encoding, FileFormat, OutputError, OutputOptions};
+pub use output::{ColorEncoding, Encoding, FileFormat, OutputError, OutputOptions, rgb8_of};
 
 use crate::math::Color;
 use std::io::Write;
@@ -42,15 +42,21 @@ impl Image {
         &mut self.pixels
     }
 
+    /// The pixels as floats, three per pixel, row after row, from the returned index
+    /// on: the film's own memory, not a copy, so a binding can hand a big image over
+    /// (to numpy) without writing it twice. (A copy only if the cast is refused.)
+    pub fn into_floats(self) -> (Vec<f32>, usize) {
+        let (buf, start) = self.pixels.into_parts();
+        match bytemuck::allocation::try_cast_vec::<Color, f32>(buf) {
+            Ok(floats) => (floats, start * 3),
+            Err((_, buf)) => (bytemuck::cast_slice(&buf[start..]).to_vec(), 0),
+        }
+    }
+
     /// 8-bit RGB, clamped, without gamma: the original wrote its colours to the screen
     /// as they were, and the POV-Ray reference does the same (`File_Gamma=1.0`).
     pub fn to_rgb8(&self) -> image::RgbImage {
-        let mut out = image::RgbImage::new(self.width, self.height);
-        for (dst, c) in out.pixels_mut().zip(self.pixels.iter()) {
-            let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-            *dst = image::Rgb([q(c.x), q(c.y), q(c.z)]);
-        }
-        out
+        self.to_rgb8_as(ColorEncoding::Linear)
     }
 }
 
@@ -154,6 +160,30 @@ pub fn write_png(image: &Image, path: &Path) -> Result<(), OutputError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floats_are_the_pixels_in_order_small_and_big() {
+        // 1000x1000 is big enough for the film to start past a huge-page boundary.
+        for (w, h) in [(3, 2), (1000, 1000)] {
+            let mut img = Image::new(w, h);
+            img.set(0, 0, Color::new(0.1, 0.2, 0.3));
+            img.set(w - 1, h - 1, Color::new(4.0, -1.0, f32::NAN));
+            img.set(1, 1, Color::new(0.5, 0.6, 0.7));
+            let expect: Vec<u32> = (0..h)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
+                .flat_map(|(x, y)| img.pixel(x, y).to_array())
+                .map(f32::to_bits)
+                .collect();
+            let rgb8 = img.to_rgb8();
+            let (floats, start) = img.into_floats();
+            let got: Vec<u32> = floats[start..start + (w * h * 3) as usize].iter().map(|v| v.to_bits()).collect();
+            assert_eq!(got, expect, "{w}x{h}");
+            // The 8-bit quantisation of the same floats, as the PNG writer does it.
+            let quantised = rgb8_of(&floats[start..start + (w * h * 3) as usize], ColorEncoding::Linear);
+            assert_eq!(quantised, rgb8.into_raw());
+            assert_eq!(&quantised[quantised.len() - 3..], &[255, 0, 0]);
+        }
+    }
 
     #[test]
     fn write_is_atomic_and_leaves_no_temp_files() {

@@ -133,12 +133,8 @@ impl Encoding {
 impl Image {
     /// 8-bit RGB in the given encoding, clamped to [0, 1] and rounded.
     pub fn to_rgb8_as(&self, color: ColorEncoding) -> image::RgbImage {
-        let mut out = image::RgbImage::new(self.width, self.height);
-        let q = |v: f32| (encode(v, color) * 255.0 + 0.5) as u8;
-        for (dst, c) in out.pixels_mut().zip(self.pixels.iter()) {
-            *dst = image::Rgb([q(c.x), q(c.y), q(c.z)]);
-        }
-        out
+        let bytes = rgb8_of(bytemuck::cast_slice(&self.pixels), color);
+        image::RgbImage::from_raw(self.width, self.height, bytes).expect("three bytes per pixel")
     }
 
     /// 16-bit RGB in the given encoding, clamped to [0, 1] and rounded.
@@ -150,6 +146,13 @@ impl Image {
         }
         out
     }
+}
+
+/// Linear float channels as 8-bit ones in the given encoding, clamped to [0, 1] and
+/// rounded: what every 8-bit output writes ([`Image::to_rgb8_as`]), also for floats
+/// that are not in an [`Image`] (a numpy array).
+pub fn rgb8_of(floats: &[f32], color: ColorEncoding) -> Vec<u8> {
+    floats.iter().map(|&v| (encode(v, color) * 255.0 + 0.5) as u8).collect()
 }
 
 /// `v` clamped to [0, 1] (NaN to 0) and encoded; linear is exactly the clamp the
