@@ -3,7 +3,7 @@
 //! classes, overrides, pickling, Dask) is in `whitted/*.py`; this stays a thin layer over
 //! the library's public API so that changes to the render core do not ripple into it.
 
-use numpy::{PyArray1, PyArrayMethods, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
+use numpy::{PyArray1, PyReadonlyArray2, PyReadonlyArray3, PyUntypedArrayMethods};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyOSError, PyValueError};
 use pyo3::prelude::*;
