@@ -124,8 +124,7 @@ impl<'w, 's> Integrator<'w, 's> {
 
     #[inline(always)]
     fn material(&self, index: u32) -> &'s Material {
-        let scene = self.world.scene();
-        scene.material(scene.objects[index as usize].material)
+        self.world.material(index)
     }
 
     /// The colour seen along a camera ray.
@@ -183,9 +182,8 @@ impl<'w, 's> Integrator<'w, 's> {
     /// The surface that shading sees where `ray` hit object `index`.
     #[inline]
     pub fn surface(&self, ray: &Ray, hit: &Hit, index: u32) -> PackedSurface {
-        let scene = self.world.scene();
-        let object = &scene.objects[index as usize];
-        object.shape.surface_as(ray, hit, scene.material(object.material).texture.uses_uv())
+        let shape = &self.world.scene().objects[index as usize].shape;
+        shape.surface_as(ray, hit, self.material(index).texture.uses_uv())
     }
 
     /// Step one of shading a hit of `ray` on object `index` at `surface`: the colour
