@@ -179,8 +179,9 @@ impl<'w, 's> Integrator<'w, 's> {
         color
     }
 
-    /// The surface that shading sees where `ray` hit object `index`.
-    #[inline]
+    /// The surface that shading sees where `ray` hit object `index`. Inlined (always):
+    /// called, it was 5 % of a room render on its own, its answer returned through memory.
+    #[inline(always)]
     pub fn surface(&self, ray: &Ray, hit: &Hit, index: u32) -> PackedSurface {
         let shape = &self.world.scene().objects[index as usize].shape;
         shape.surface_as(ray, hit, self.material(index).texture.uses_uv())
