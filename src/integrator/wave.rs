@@ -196,6 +196,11 @@ impl Wave {
         budget.resize(colors.len(), 0);
         for (k, (ray, found)) in level.iter().enumerate() {
             let Some((_, index)) = found else { continue };
+            // Most hits (matte walls) send nothing: skip them before building a Path and
+            // calling `scatter`, whose two-slot answer is costly to copy back.
+            if !integrator.sends(*index, depth) {
+                continue;
+            }
             let (weight, sample) = paths[k];
             let path = Path { ray: *ray, weight, depth };
             for (slot, child) in integrator.scatter(&path, &surfaces[k].get(), *index).into_iter().enumerate() {
