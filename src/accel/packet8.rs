@@ -13,8 +13,9 @@
 //! called out of line, each test a call with its rays and best hits read from memory.
 
 use super::lanes::Best8;
-use crate::geometry::{Cone, Cylinder, Quad, Sphere, part};
+use crate::geometry::{Cone, Cylinder, Quad, Sphere, part, sphere_hits};
 use crate::math::Ray;
+use crate::math::lanes::{self, F8, Lanes};
 use std::arch::x86_64::*;
 
 /// Eight rays, lane by lane.
@@ -165,38 +166,17 @@ pub fn quad(q: &Quad, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
     keep(best, hit, t, a, b, index);
 }
 
-/// [`Sphere::intersect`] in eight lanes, as [`quad`].
+/// [`Sphere::intersect`] in eight lanes, as [`quad`]: its own code
+/// ([`crate::geometry::sphere_hits`]), eight lanes wide.
 #[target_feature(enable = "avx2")]
 #[inline]
 pub fn sphere(s: &Sphere, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
-    let (mul, sub) = (_mm256_mul_ps, _mm256_sub_ps);
-    let center = splat3(s.center);
-    let oc: [__m256; 3] = std::array::from_fn(|i| sub(r.o[i], center[i]));
-    let b = dot(&oc, &r.d);
-    let r2 = _mm256_set1_ps(s.radius * s.radius);
-    let perp: [__m256; 3] = std::array::from_fn(|i| sub(oc[i], mul(b, r.d[i])));
-    let disc = sub(r2, dot(&perp, &perp));
-    // `!(disc < 0)`: a NaN goes on, as in the scalar test.
-    let real = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLT_UQ>(disc, _mm256_setzero_ps())) as u32 & live;
-    if real == 0 {
-        return;
-    }
-    let c = sub(dot(&oc, &oc), r2);
-    let sign = _mm256_set1_ps(-0.0);
-    // `disc.sqrt().copysign(b)`, then negated.
-    let root = _mm256_or_ps(_mm256_andnot_ps(sign, _mm256_sqrt_ps(disc)), _mm256_and_ps(sign, b));
-    let q = _mm256_xor_ps(_mm256_add_ps(b, root), sign);
-    let (t0, t1) = (_mm256_div_ps(c, q), q);
-    let ordered = _mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1);
-    let near = _mm256_blendv_ps(t1, t0, ordered);
-    let far = _mm256_blendv_ps(t0, t1, ordered);
-    let (lo, hi) = (_mm256_setzero_ps(), load(&best.t));
-    let within = |t: __m256| _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(t, lo), _mm256_cmp_ps::<_CMP_LT_OQ>(t, hi));
-    let (near_ok, far_ok) = (within(near), within(far));
-    let t = _mm256_blendv_ps(far, near, near_ok);
-    let hit = _mm256_movemask_ps(_mm256_or_ps(near_ok, far_ok)) as u32 & real;
+    let (o, d) = (r.o.map(|v| F8(store(v))), r.d.map(|v| F8(store(v))));
+    let (zero, radius) = (F8::splat(0.0), F8::splat(s.radius));
+    let (hit, t) = sphere_hits(o, d, lanes::splat3(s.center), radius, zero, F8(best.t));
+    let hit = F8::bits(hit) & live;
     if hit != 0 {
-        keep(best, hit, t, _mm256_setzero_ps(), _mm256_setzero_ps(), index);
+        keep(best, hit, load(&t.0), _mm256_setzero_ps(), _mm256_setzero_ps(), index);
     }
 }
 

@@ -1,9 +1,12 @@
 //! Spheres in packs of four, laid out lane by lane, so one test runs on four spheres at
-//! once. The arithmetic is [`Sphere::intersect`]'s operation for operation, so each
-//! lane's answer is bit-identical to the scalar one and images do not depend on the path.
+//! once. The test is [`Sphere::intersect`]'s own code ([`crate::geometry::sphere_hits`]),
+//! so each lane's answer is bit-identical to the scalar one and images do not depend on
+//! the path.
 
 use super::tri4::Ray4;
 use crate::geometry::Sphere;
+use crate::geometry::sphere_hits as hits;
+use crate::math::lanes::Lanes;
 use glam::Vec4;
 
 /// Four spheres (centre, radius) plus their object indices (`u32::MAX` in unused lanes,
@@ -32,33 +35,12 @@ impl Sphere4 {
         p
     }
 
-    /// Per lane the hit distance, and a bit mask of the lanes hit within `(t_min, t_max)`.
+    /// Per lane the hit distance, and a bit mask of the lanes hit within `(t_min, t_max)`:
+    /// the scalar test's code ([`crate::geometry::sphere_hits`]) four lanes wide.
     #[inline(always)]
     pub fn intersect(&self, r: &Ray4, t_min: f32, t_max: f32) -> (u32, Vec4) {
-        let dot = |a: &[Vec4; 3], b: &[Vec4; 3]| (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2]);
-        let oc = [r.o[0] - self.center[0], r.o[1] - self.center[1], r.o[2] - self.center[2]];
-        let b = dot(&oc, &r.d);
-        let r2 = self.radius * self.radius;
-        let perp = [oc[0] - b * r.d[0], oc[1] - b * r.d[1], oc[2] - b * r.d[2]];
-        let disc = r2 - dot(&perp, &perp);
-        let real = disc.cmpge(Vec4::ZERO);
-        if real.bitmask() == 0 {
-            // Most tests in a cloud miss every sphere of the pack: skip the root and
-            // the division.
-            return (0, Vec4::ZERO);
-        }
-        let c = dot(&oc, &oc) - r2;
-        let q = -(b + disc.sqrt().copysign(b));
-        let (t0, t1) = (c / q, q);
-        let swap = t0.cmple(t1);
-        let near = Vec4::select(swap, t0, t1);
-        let far = Vec4::select(swap, t1, t0);
-        let (lo, hi) = (Vec4::splat(t_min), Vec4::splat(t_max));
-        // NaN roots (q = 0, or an empty lane) fail every comparison, as in the scalar test.
-        let near_ok = near.cmpgt(lo) & near.cmplt(hi);
-        let far_ok = far.cmpgt(lo) & far.cmplt(hi);
-        let t = Vec4::select(near_ok, near, far);
-        (((near_ok | far_ok) & real).bitmask(), t)
+        let (hit, t) = hits(r.o, r.d, self.center, self.radius, Vec4::splat(t_min), Vec4::splat(t_max));
+        (Vec4::bits(hit), t)
     }
 }
 

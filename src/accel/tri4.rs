@@ -1,8 +1,10 @@
 //! Triangles in packs of four, laid out lane by lane, so one Möller–Trumbore test runs
-//! on four triangles at once. The arithmetic is the scalar routine's
-//! ([`crate::geometry::intersect_triangle`]) operation for operation, so each lane's
-//! result is bit-identical to the scalar one and images do not depend on the path.
+//! on four triangles at once. The test is the scalar routine's own code
+//! ([`crate::geometry::triangle_hits`]), so each lane's result is bit-identical to the
+//! scalar one and images do not depend on the path.
 
+use crate::geometry::triangle_hits;
+use crate::math::lanes::Lanes;
 use crate::math::{Ray, Vec3};
 use glam::Vec4;
 
@@ -31,16 +33,6 @@ impl Ray4 {
     }
 }
 
-#[inline(always)]
-fn cross(a: &[Vec4; 3], b: &[Vec4; 3]) -> [Vec4; 3] {
-    [a[1] * b[2] - b[1] * a[2], a[2] * b[0] - b[2] * a[0], a[0] * b[1] - b[0] * a[1]]
-}
-
-#[inline(always)]
-fn dot(a: &[Vec4; 3], b: &[Vec4; 3]) -> Vec4 {
-    (a[0] * b[0]) + (a[1] * b[1]) + (a[2] * b[2])
-}
-
 impl Tri4 {
     /// Packs up to four triangles given as (v0, e1, e2, id).
     pub fn pack(tris: &[(Vec3, Vec3, Vec3, u32)]) -> Tri4 {
@@ -58,26 +50,13 @@ impl Tri4 {
     }
 
     /// Per lane: distance and barycentrics, and a bit mask of the lanes hit within
-    /// `(t_min, t_max)`.
+    /// `(t_min, t_max)`: the scalar test's code ([`crate::geometry::triangle_hits`]) four
+    /// lanes wide.
     #[inline(always)]
     pub fn intersect(&self, r: &Ray4, t_min: f32, t_max: f32) -> (u32, Vec4, Vec4, Vec4) {
-        let p = cross(&r.d, &self.e2);
-        let det = dot(&self.e1, &p);
-        let inv = Vec4::ONE / det;
-        let s = [r.o[0] - self.v0[0], r.o[1] - self.v0[1], r.o[2] - self.v0[2]];
-        let b1 = dot(&s, &p) * inv;
-        let q = cross(&s, &self.e1);
-        let b2 = dot(&r.d, &q) * inv;
-        let t = dot(&self.e2, &q) * inv;
-        let finite = inv.abs().cmplt(Vec4::INFINITY); // also false for NaN
-        let ok = finite
-            & b1.cmpge(Vec4::ZERO)
-            & b1.cmple(Vec4::ONE)
-            & b2.cmpge(Vec4::ZERO)
-            & (b1 + b2).cmple(Vec4::ONE)
-            & t.cmpgt(Vec4::splat(t_min))
-            & t.cmplt(Vec4::splat(t_max));
-        (ok.bitmask(), t, b1, b2)
+        let (lo, hi) = (Vec4::splat(t_min), Vec4::splat(t_max));
+        let (ok, t, b1, b2) = triangle_hits(r.o, r.d, [self.v0, self.e1, self.e2], lo, hi);
+        (Vec4::bits(ok), t, b1, b2)
     }
 }
 

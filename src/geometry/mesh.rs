@@ -17,6 +17,7 @@
 //! ```
 
 use super::{Hit, Surface, part};
+use crate::math::lanes::{Lanes, V3, cross, dot, sub};
 use crate::math::{Aabb, Ray, Vec2, Vec3};
 
 #[derive(Clone, Debug, PartialEq)]
@@ -47,24 +48,35 @@ pub enum MeshError {
 /// Shared by the brute-force and BVH paths, so both find bit-identical hits.
 #[inline(always)]
 pub fn intersect_triangle(v0: Vec3, e1: Vec3, e2: Vec3, ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
-    let p = ray.dir.cross(e2);
-    let det = e1.dot(p);
-    let inv = 1.0 / det;
-    if !inv.is_finite() {
-        return None; // ray parallel to the plane, or a degenerate triangle
-    }
-    let s = ray.origin - v0;
-    let b1 = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&b1) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let b2 = ray.dir.dot(q) * inv;
-    if !(b2 >= 0.0 && b1 + b2 <= 1.0) {
-        return None;
-    }
-    let t = e2.dot(q) * inv;
-    (t > t_min && t < t_max).then_some((t, b1, b2))
+    let c = |v: Vec3| v.to_array();
+    let (hit, t, b1, b2) = triangle_hits::<f32>(c(ray.origin), c(ray.dir), [c(v0), c(e1), c(e2)], t_min, t_max);
+    hit.then_some((t, b1, b2))
+}
+
+/// Möller–Trumbore, lane by lane ([`Lanes`]: one triangle, or several against one ray):
+/// a ray (origin `o`, direction `d`) against triangles given as corner and two edges
+/// (`[v0, e1, e2]`). Whether it hits within `(t_min, t_max)`, and the distance and
+/// barycentrics (b1 along `e1`, b2 along `e2`). The one triangle test, for every width.
+#[inline(always)]
+pub fn triangle_hits<L: Lanes>(o: V3<L>, d: V3<L>, [v0, e1, e2]: [V3<L>; 3], t_min: L, t_max: L) -> (L::Mask, L, L, L) {
+    let p = cross(d, e2);
+    let det = dot(e1, p);
+    let inv = L::splat(1.0) / det;
+    let s = sub(o, v0);
+    let b1 = dot(s, p) * inv;
+    let q = cross(s, e1);
+    let b2 = dot(d, q) * inv;
+    let t = dot(e2, q) * inv;
+    // Not finite: a ray parallel to the plane, or a degenerate triangle (NaN fails too).
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
+    let ok = inv.abs().lt(L::splat(f32::INFINITY))
+        & b1.ge(zero)
+        & b1.le(one)
+        & b2.ge(zero)
+        & (b1 + b2).le(one)
+        & t.gt(t_min)
+        & t.lt(t_max);
+    (ok, t, b1, b2)
 }
 
 impl Mesh {

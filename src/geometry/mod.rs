@@ -19,10 +19,10 @@ pub mod triangulate;
 
 pub use cone::Cone;
 pub use cylinder::Cylinder;
-pub use mesh::{Mesh, MeshError, intersect_triangle};
+pub use mesh::{Mesh, MeshError, intersect_triangle, triangle_hits};
 pub use polygon::{Polygon, PolygonError};
 pub use quad::Quad;
-pub use sphere::Sphere;
+pub use sphere::{Sphere, hits as sphere_hits};
 pub use transformed::{Transformed, affine, apply as transform, instance};
 pub use triangle::Triangle;
 

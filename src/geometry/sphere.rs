@@ -1,4 +1,5 @@
 use super::{Hit, Surface, part};
+use crate::math::lanes::{Lanes, V3, dot, sub, sub_scaled};
 use crate::math::{Aabb, Ray, Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
 
@@ -8,37 +9,47 @@ pub struct Sphere {
     pub radius: f32,
 }
 
+/// Where a ray (origin `o`, unit direction `d`) meets spheres (`center`, `radius`), lane
+/// by lane ([`Lanes`]: one sphere, or several against one ray): whether it does within
+/// `(t_min, t_max)`, and the nearer such distance. The one sphere test, for every width.
+#[inline(always)]
+pub fn hits<L: Lanes>(o: V3<L>, d: V3<L>, center: V3<L>, radius: L, t_min: L, t_max: L) -> (L::Mask, L) {
+    // Ray Tracing Gems ch. 7: with |d| = 1, the discriminant r² - |oc - b d|² does not
+    // suffer the cancellation of b² - c when the sphere is small and far away, and
+    // q = -(b + sign(b) √disc) keeps the near root accurate.
+    let oc = sub(o, center);
+    let b = dot(oc, d);
+    let r2 = radius * radius;
+    let perp = sub_scaled(oc, b, d);
+    let disc = r2 - dot(perp, perp);
+    // A NaN discriminant is no hit here, as its NaN roots would be none below.
+    let real = disc.ge(L::splat(0.0));
+    if L::bits(real) == 0 {
+        // Most tests in a cloud miss every sphere: skip the root and the division.
+        return (real, L::splat(0.0));
+    }
+    let c = dot(oc, oc) - r2;
+    let q = -(b + disc.sqrt().copysign(b));
+    let (t0, t1) = (c / q, q);
+    let ordered = t0.le(t1);
+    let (near, far) = (L::select(ordered, t0, t1), L::select(ordered, t1, t0));
+    // Comparisons written so that a NaN root (q = 0) is rejected.
+    let near_ok = near.gt(t_min) & near.lt(t_max);
+    let far_ok = far.gt(t_min) & far.lt(t_max);
+    ((near_ok | far_ok) & real, L::select(near_ok, near, far))
+}
+
 impl Sphere {
     pub fn new(center: Vec3, radius: f32) -> Self {
         Sphere { center, radius }
     }
 
     /// A ray exactly tangent to the sphere (discriminant 0) counts as a hit.
+    #[inline]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        // Ray Tracing Gems ch. 7: with |d| = 1, the discriminant r² - |oc - b d|² does not
-        // suffer the cancellation of b² - c when the sphere is small and far away, and
-        // q = -(b + sign(b) √disc) keeps the near root accurate.
-        let oc = ray.origin - self.center;
-        let b = oc.dot(ray.dir);
-        let r2 = self.radius * self.radius;
-        let perp = oc - b * ray.dir;
-        let disc = r2 - perp.length_squared();
-        if disc < 0.0 {
-            return None;
-        }
-        let c = oc.length_squared() - r2;
-        let q = -(b + disc.sqrt().copysign(b));
-        let (t0, t1) = (c / q, q);
-        let (near, far) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
-        // Comparisons written so that a NaN root (q = 0) is rejected.
-        let t = if near > t_min && near < t_max {
-            near
-        } else if far > t_min && far < t_max {
-            far
-        } else {
-            return None;
-        };
-        Some(Hit { prim: 0, t, uv: Vec2::ZERO, part: part::SIDE })
+        let c = |v: Vec3| v.to_array();
+        let (hit, t) = hits::<f32>(c(ray.origin), c(ray.dir), c(self.center), self.radius, t_min, t_max);
+        hit.then_some(Hit { prim: 0, t, uv: Vec2::ZERO, part: part::SIDE })
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {

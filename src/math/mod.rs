@@ -1,5 +1,7 @@
 //! Vectors, rays and boxes: the vocabulary every other module speaks.
 
+pub mod lanes;
+
 pub use glam::{Vec2, Vec3};
 
 /// Linear RGB; components are not clamped until the film writes them out.
