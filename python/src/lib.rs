@@ -389,7 +389,9 @@ fn to_numpy(py: Python<'_>, image: Image) -> PyResult<Bound<'_, PyAny>> {
     pixels.call_method1("reshape", ((h, w, 3),))
 }
 
-fn from_numpy(array: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
+/// An image array's width, height and floats (row after row, three per pixel), or why
+/// it is not one.
+fn image_floats<'a>(array: &'a PyReadonlyArray3<'_, f32>) -> PyResult<(u32, u32, &'a [f32])> {
     let shape = array.shape();
     if shape[2] != 3 || shape[0] == 0 || shape[1] == 0 {
         return Err(PyValueError::new_err(format!(
@@ -398,6 +400,11 @@ fn from_numpy(array: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
     }
     let (h, w) = (shape[0] as u32, shape[1] as u32);
     let data = array.as_slice()?;
+    Ok((w, h, data))
+}
+
+fn from_numpy(array: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
+    let (w, h, data) = image_floats(array)?;
     let mut image = Image::new(w, h);
     for (dst, src) in image.pixels_mut().iter_mut().zip(data.chunks_exact(3)) {
         *dst = Color::new(src[0], src[1], src[2]);
@@ -425,14 +432,7 @@ fn write_png_array(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, path: &str)
 /// quantised straight from the array as the command line does, the GIL released.
 #[pyfunction]
 fn encode_png<'py>(py: Python<'py>, image: PyReadonlyArray3<'_, f32>) -> PyResult<Bound<'py, PyBytes>> {
-    let shape = image.shape();
-    if shape[2] != 3 || shape[0] == 0 || shape[1] == 0 {
-        return Err(PyValueError::new_err(format!(
-            "image: expected shape (height, width, 3) with height, width >= 1, got {shape:?}"
-        )));
-    }
-    let (h, w) = (shape[0] as u32, shape[1] as u32);
-    let data = image.as_slice()?;
+    let (w, h, data) = image_floats(&image)?;
     let png = py.detach(|| {
         let rgb = image::RgbImage::from_raw(w, h, rgb8_of(data, ColorEncoding::Linear)).expect("h x w x 3 floats");
         let mut out = std::io::Cursor::new(Vec::new());
