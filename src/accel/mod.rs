@@ -24,6 +24,7 @@ mod packet8;
 mod shadow;
 pub use lanes::Best8;
 mod sphere4;
+mod sphere8;
 mod tri4;
 pub mod wide;
 #[cfg(target_arch = "x86_64")]
@@ -40,6 +41,7 @@ use crate::math::{Ray, Vec2};
 use crate::scene::Scene;
 use mesh_bvh::MeshBvh;
 use sphere4::Sphere4;
+use sphere8::Sphere8;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -109,6 +111,12 @@ impl Nearest {
     }
 }
 
+/// Spheres per leaf pack: eight where the top tree will be 8-wide (its walk is built for
+/// AVX2, so [`Sphere8`]'s lanes run as 8-wide instructions), else four.
+fn sphere_pack(width: Option<usize>) -> usize {
+    WideBvh::chosen_width(width)
+}
+
 fn wide(bvh: &Bvh, width: Option<usize>) -> WideBvh {
     match width {
         Some(w) => WideBvh::with_width(bvh, w),
@@ -117,11 +125,13 @@ fn wide(bvh: &Bvh, width: Option<usize>) -> WideBvh {
 }
 
 /// An entry of a top-level leaf. Spheres, the commonest object in big scenes, are
-/// copied into the leaf in packs of four and tested together (inline, so a leaf's
-/// spheres are one read from the node, not two); other objects are named by index.
+/// copied into the leaf in packs of four (eight where the 8-wide tree is walked) and
+/// tested together (inline, so a leaf's spheres are one read from the node, not two);
+/// other objects are named by index.
 #[derive(Clone, Copy, Debug)]
 enum LeafItem {
     Spheres(Sphere4),
+    Spheres8(Sphere8),
     Other(u32),
 }
 
@@ -193,7 +203,7 @@ impl<'s> World<'s> {
                 // differ too much in cost for packs to be the unit.
                 let round = scene.objects.iter().filter(|o| matches!(o.shape, Shape::Sphere(_))).count();
                 let top = if round >= 64 && round * 10 >= scene.objects.len() * 9 {
-                    Bvh::build_packed(&bounds, 4)
+                    Bvh::build_packed(&bounds, sphere_pack(width))
                 } else {
                     Bvh::build(&bounds)
                 };
@@ -202,6 +212,8 @@ impl<'s> World<'s> {
         };
         let mut top4 = if top.nodes.is_empty() { WideBvh::default() } else { wide(&top, width) };
         let mut leaves = Vec::new();
+        // Packs of eight only where the 8-wide walk (built for AVX2) tests them.
+        let pack = if top4.width() == 8 { 8 } else { 4 };
         top4.map_leaves(|first, count| {
             let start = leaves.len() as u32;
             let ids = &top.indices[first as usize..(first + count) as usize];
@@ -210,8 +222,11 @@ impl<'s> World<'s> {
                 _ => None,
             };
             let round: Vec<_> = ids.iter().filter_map(|&i| sphere(i)).collect();
-            for chunk in round.chunks(4) {
-                leaves.push(LeafItem::Spheres(Sphere4::pack(chunk)));
+            for chunk in round.chunks(pack) {
+                leaves.push(match pack {
+                    8 => LeafItem::Spheres8(Sphere8::pack(chunk)),
+                    _ => LeafItem::Spheres(Sphere4::pack(chunk)),
+                });
             }
             leaves.extend(ids.iter().filter(|&&i| sphere(i).is_none()).map(|&i| LeafItem::Other(i)));
             (start, leaves.len() as u32 - start)
@@ -290,6 +305,7 @@ impl<'s> World<'s> {
     /// (else in node order, which saves sorting when every hit counts);
     /// `test(index of the entry in `leaves`, t_max)` as in [`Bvh::traverse`].
     #[inline]
+    #[allow(unsafe_code)]
     fn traverse_objects<const NEAREST_FIRST: bool>(
         &self,
         ray: &Ray,
@@ -302,15 +318,16 @@ impl<'s> World<'s> {
         if !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return;
         }
-        let leaf = |range: std::ops::Range<usize>, mut t_cur: f32| {
-            for at in range {
-                match test(at, t_cur) {
-                    Visit::Continue(t) => t_cur = t,
-                    Visit::Stop => return Visit::Stop,
-                }
-            }
-            Visit::Continue(t_cur)
-        };
+        // The 8-wide walk is built for AVX2, but the leaf closure is not inlined into it,
+        // and built without AVX2 it could not inline [`Sphere8`]'s AVX test: the leaves
+        // are tested in a function built for AVX2 instead ([`leaf_avx2`]).
+        #[cfg(target_arch = "x86_64")]
+        if let WideBvh::Eight(tree) = &self.top4 {
+            // SAFETY: a `Bvh8` exists only where the processor has AVX2.
+            let leaf = |range, t_cur| unsafe { leaf_avx2(range, t_cur, &mut test) };
+            return tree.start::<NEAREST_FIRST, _>(ray, t_min, t_max, &self.leaves, leaf);
+        }
+        let leaf = |range, t_cur| leaf_loop(range, t_cur, &mut test);
         self.top4.traverse::<NEAREST_FIRST, _>(ray, t_min, t_max, &self.leaves, leaf)
     }
 
@@ -374,6 +391,14 @@ impl<'s> World<'s> {
                     offer(Hit { t: t[lane], uv: Vec2::ZERO, part: part::SIDE, prim: 0 }, pack.ids[lane]);
                 }
             }
+            LeafItem::Spheres8(ref pack) => {
+                let (mut mask, t) = pack.intersect(ray, t_min, limit);
+                while mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    mask &= mask - 1;
+                    offer(Hit { t: t.0[lane], uv: Vec2::ZERO, part: part::SIDE, prim: 0 }, pack.ids[lane]);
+                }
+            }
             LeafItem::Other(i) => {
                 if let Some(h) = self.intersect_object(i as usize, ray, t_min, limit) {
                     offer(h, i);
@@ -382,6 +407,28 @@ impl<'s> World<'s> {
         }
         t_cur
     }
+}
+
+/// The entries `range` of a leaf, each by `test(entry, t_max)`, the bound shrinking as
+/// it says; stops when it says so.
+#[inline(always)]
+fn leaf_loop(range: std::ops::Range<usize>, mut t_cur: f32, test: &mut impl FnMut(usize, f32) -> Visit) -> Visit {
+    for at in range {
+        match test(at, t_cur) {
+            Visit::Continue(t) => t_cur = t,
+            Visit::Stop => return Visit::Stop,
+        }
+    }
+    Visit::Continue(t_cur)
+}
+
+/// [`leaf_loop`] built for AVX2, for the 8-wide walk: so [`Sphere8`]'s AVX test is
+/// inlined into it, not called once per pack.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline]
+fn leaf_avx2(range: std::ops::Range<usize>, t_cur: f32, test: &mut impl FnMut(usize, f32) -> Visit) -> Visit {
+    leaf_loop(range, t_cur, test)
 }
 
 #[cfg(test)]

@@ -94,6 +94,17 @@ impl World<'_> {
                     }
                 }
             }
+            LeafItem::Spheres8(ref pack) => {
+                let mut blocked = pack.intersect(ray, 0.0, t_max).0;
+                while blocked != 0 {
+                    let lane = blocked.trailing_zeros() as usize;
+                    blocked &= blocked - 1;
+                    *light *= self.transmission[pack.ids[lane] as usize] as f64;
+                    if *light == 0.0 {
+                        return true;
+                    }
+                }
+            }
             LeafItem::Other(i) => {
                 if self.blocks(i as usize, ray, t_max) {
                     *light *= self.transmission[i as usize] as f64;

@@ -299,8 +299,11 @@ fn sphere_packs_agree_with_testing_every_object() {
 
 fn sphere_packs_agree(scene: &Scene, width: usize, r: &mut Rng) {
     let (bvh, brute) = (World::with_width(scene, AccelKind::Bvh, Some(width)), World::new(scene, AccelKind::None));
-    let packs = bvh.leaves.iter().filter(|l| matches!(l, LeafItem::Spheres(_))).count();
+    let packs = bvh.leaves.iter().filter(|l| matches!(l, LeafItem::Spheres(_) | LeafItem::Spheres8(_))).count();
     assert!(packs > 0 && packs * 2 < scene.objects.len(), "spheres not packed");
+    // Packs of eight exactly where the 8-wide tree is walked.
+    let eights = bvh.leaves.iter().any(|l| matches!(l, LeafItem::Spheres8(_)));
+    assert_eq!(eights, bvh.top4.width() == 8, "packs of eight in a {}-wide tree", bvh.top4.width());
     for i in 0..40_000 {
         let ray = Ray::new(v(r, 30.0), unit(r));
         let (a, b) = (bvh.closest(&ray, 0.0, f32::INFINITY), brute.closest(&ray, 0.0, f32::INFINITY));

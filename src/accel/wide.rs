@@ -291,7 +291,7 @@ fn prefetch(node: &Node4) {
 }
 
 /// Asks the processor to start loading the first two cache lines of `items[first]`
-/// (a leaf's first triangle pack or top-level entry).
+/// (a leaf's first triangle pack or top-level entry), three if it is bigger.
 #[inline(always)]
 #[allow(unsafe_code)]
 pub(super) fn prefetch_items<T>(items: &[T], first: usize) {
@@ -304,6 +304,10 @@ pub(super) fn prefetch_items<T>(items: &[T], first: usize) {
         unsafe {
             _mm_prefetch::<_MM_HINT_T0>(p);
             _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+            // A top-level entry holding eight spheres is 192 bytes.
+            if std::mem::size_of::<T>() > 128 {
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(128));
+            }
         }
     }
 }

@@ -25,8 +25,24 @@ impl Default for WideBvh {
 
 impl WideBvh {
     pub fn from_binary(bvh: &Bvh) -> WideBvh {
+        WideBvh::with_width(bvh, Self::default_width())
+    }
+
+    fn default_width() -> usize {
         let four = std::env::var("WHITTED_BVH_WIDTH").as_deref() == Ok("4");
-        WideBvh::with_width(bvh, if four { 4 } else { 8 })
+        if four { 4 } else { 8 }
+    }
+
+    /// The width of the tree [`WideBvh::with_width`] (or, for `None`,
+    /// [`WideBvh::from_binary`]) makes, known before the binary tree is built.
+    pub fn chosen_width(width: Option<usize>) -> usize {
+        let wanted = width.unwrap_or_else(Self::default_width);
+        #[cfg(target_arch = "x86_64")]
+        if wanted == 8 && super::lanes::avx2() && std::is_x86_feature_detected!("avx2") {
+            return 8;
+        }
+        let _ = wanted;
+        4
     }
 
     /// The 8-wide tree if asked for and this processor walks it, else the 4-wide one.
