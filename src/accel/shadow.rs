@@ -83,35 +83,22 @@ impl World<'_> {
     #[inline(always)]
     fn leaf_stops(&self, at: usize, r4: &Ray4, ray: &Ray, t_max: f32, light: &mut f64) -> bool {
         match self.leaves[at] {
-            LeafItem::Spheres(ref pack) => {
-                let mut blocked = pack.intersect(r4, 0.0, t_max).0;
-                while blocked != 0 {
-                    let lane = blocked.trailing_zeros() as usize;
-                    blocked &= blocked - 1;
-                    *light *= self.transmission[pack.ids[lane] as usize] as f64;
-                    if *light == 0.0 {
-                        return true;
-                    }
-                }
-            }
-            LeafItem::Spheres8(ref pack) => {
-                let mut blocked = pack.intersect(ray, 0.0, t_max).0;
-                while blocked != 0 {
-                    let lane = blocked.trailing_zeros() as usize;
-                    blocked &= blocked - 1;
-                    *light *= self.transmission[pack.ids[lane] as usize] as f64;
-                    if *light == 0.0 {
-                        return true;
-                    }
-                }
-            }
-            LeafItem::Other(i) => {
-                if self.blocks(i as usize, ray, t_max) {
-                    *light *= self.transmission[i as usize] as f64;
-                    if *light == 0.0 {
-                        return true;
-                    }
-                }
+            LeafItem::Spheres(ref pack) => self.pass_through(pack.intersect(r4, 0.0, t_max).0, &pack.ids, light),
+            LeafItem::Spheres8(ref pack) => self.pass_through(pack.intersect(ray, 0.0, t_max).0, &pack.ids, light),
+            LeafItem::Other(i) => self.pass_through(self.blocks(i as usize, ray, t_max) as u32, &[i], light),
+        }
+    }
+
+    /// Multiplies into `light` the transmission of the objects `ids` in the lanes of
+    /// `blocked` (a pack's hits); `true` once the light is gone.
+    #[inline(always)]
+    fn pass_through(&self, mut blocked: u32, ids: &[u32], light: &mut f64) -> bool {
+        while blocked != 0 {
+            let lane = blocked.trailing_zeros() as usize;
+            blocked &= blocked - 1;
+            *light *= self.transmission[ids[lane] as usize] as f64;
+            if *light == 0.0 {
+                return true;
             }
         }
         false

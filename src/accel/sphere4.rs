@@ -45,12 +45,18 @@ impl Sphere4 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::math::{Ray, Vec3};
 
-    #[test]
-    fn every_lane_matches_the_scalar_test_bit_for_bit() {
+    /// Random packs of one to `most` spheres and rays at them (some from inside a sphere,
+    /// some far away, some tangent-ish), each tested by `test` (bit mask of the lanes
+    /// hit, distance per lane), which must agree with the scalar test lane by lane, bit
+    /// for bit, and leave the empty lanes alone.
+    pub(in crate::accel) fn against_scalar(
+        most: usize,
+        mut test: impl FnMut(&[(Sphere, u32)], &Ray, f32, f32) -> (u32, [f32; 8]),
+    ) {
         let mut s = 99u64;
         let mut f = || {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -58,15 +64,15 @@ mod tests {
         };
         let (mut hits, mut inside) = (0, 0);
         for _ in 0..20_000 {
+            let n = (1 + (f().abs() * 3.9) as usize).min(most);
             let spheres: Vec<_> =
-                (0..4).map(|i| (Sphere::new(Vec3::new(f(), f(), f()), f().abs() + 0.01), i)).collect();
-            let pack = Sphere4::pack(&spheres);
-            let aim = spheres[(f().abs() * 1.9) as usize].0.center + Vec3::new(f(), f(), f()) * 0.5;
-            // Some rays start inside a sphere, some far away, some tangent-ish.
+                (0..n as u32).map(|i| (Sphere::new(Vec3::new(f(), f(), f()), f().abs() + 0.01), i)).collect();
+            let aim = spheres[(f().abs() * 0.49 * n as f32) as usize].0.center + Vec3::new(f(), f(), f()) * 0.5;
             let origin = Vec3::new(f(), f(), f()) * if f() > 0.0 { 1.0 } else { 4.0 };
             let ray = Ray::new(origin, aim - origin);
             let (t_min, t_max) = (if f() > 1.0 { 0.5 } else { 0.0 }, 2.0 + f() * 0.9);
-            let (mask, t) = pack.intersect(&Ray4::new(&ray), t_min, t_max);
+            let (mask, t) = test(&spheres, &ray, t_min, t_max);
+            assert_eq!(mask >> n, 0, "an empty lane hit");
             for (lane, (sphere, _)) in spheres.iter().enumerate() {
                 let scalar = sphere.intersect(&ray, t_min, t_max).map(|h| h.t.to_bits());
                 let wide = (mask & (1 << lane) != 0).then(|| t[lane].to_bits());
@@ -76,6 +82,15 @@ mod tests {
             }
         }
         assert!(hits > 5000 && inside > 1000, "{hits} {inside}");
+    }
+
+    #[test]
+    fn every_lane_matches_the_scalar_test_bit_for_bit() {
+        against_scalar(4, |spheres, ray, t_min, t_max| {
+            let (mask, t) = Sphere4::pack(spheres).intersect(&Ray4::new(ray), t_min, t_max);
+            let t = t.to_array();
+            (mask, std::array::from_fn(|i| if i < 4 { t[i] } else { 0.0 }))
+        });
     }
 
     #[test]
