@@ -15,6 +15,7 @@ those files at the same absolute paths.
 
 from __future__ import annotations
 
+import itertools
 import os
 import tempfile
 from typing import Any, Iterable, List, Optional, Sequence
@@ -137,8 +138,8 @@ def render_many(
     file in `out_dir` (``name.format(i)``), each written (atomically) as it arrives.
 
     Workers send back PNG bytes, not float images, and at most `in_flight` frames are
-    out at a time (default: twice the cluster's threads), so memory stays bounded however
-    many frames there are. Scenes that share geometry (made with ``scene.copy(...)``
+    out at a time (default: four times the cluster's threads, sent in batches), so memory
+    stays bounded however many frames there are. Scenes that share geometry (made with ``scene.copy(...)``
     or ``scene.at_frame(...)``) send it once. `numbers`, if given, numbers the files
     instead of the scenes' positions. Returns the paths in frame order.
     """
@@ -148,53 +149,59 @@ def render_many(
     os.makedirs(out_dir, exist_ok=True)
     if in_flight is None:
         threads = sum(client.nthreads().values()) or 1
-        in_flight = 2 * threads
+        in_flight = 4 * threads
     in_flight = _count("in_flight", in_flight, 1, 1 << 20)
     total = len(scenes) if hasattr(scenes, "__len__") else None
     bar = _bar(progress, total, "frame")
     shared = {}  # id(base) -> (base, future): geometry sent once
     paths: dict = {}
-    pending = as_completed()
+    pending = as_completed(with_results=True)
     frames = enumerate(scenes)
 
-    def submit_next() -> bool:
-        try:
-            i, scene = next(frames)
-        except StopIteration:
-            return False
-        if not isinstance(scene, Scene):
-            raise TypeError(f"scenes[{i}]: expected whitted.Scene, got {type(scene).__name__}")
-        key = id(scene._base)
-        if key not in shared:
-            [remote] = client.scatter([scene._base], broadcast=True, hash=False)
-            shared[key] = (scene._base, remote)
-        s = scene.spp if spp is None else spp
-        d = scene.max_depth if max_depth is None else max_depth
-        frame = getattr(scene, "_frame", None)
-        future = client.submit(_render_frame, shared[key][1], scene.camera, s, d, frame, retries=retries, pure=False)
-        number = i if numbers is None else numbers[i]
-        paths[future.key] = (i, os.path.join(out_dir, name.format(number)))
-        pending.add(future)
-        return True
+    def submit(n: int) -> None:
+        """Sends the next `n` frames in one message (a task each): a round trip to the
+        scheduler per frame would cost the client several ms of CPU a frame."""
+        args = []
+        for i, scene in itertools.islice(frames, n):
+            if not isinstance(scene, Scene):
+                raise TypeError(f"scenes[{i}]: expected whitted.Scene, got {type(scene).__name__}")
+            key = id(scene._base)
+            if key not in shared:
+                [remote] = client.scatter([scene._base], broadcast=True, hash=False)
+                shared[key] = (scene._base, remote)
+            s = scene.spp if spp is None else spp
+            d = scene.max_depth if max_depth is None else max_depth
+            number = i if numbers is None else numbers[i]
+            args.append((i, os.path.join(out_dir, name.format(number)), shared[key][1], scene.camera, s, d,
+                         getattr(scene, "_frame", None)))
+        if not args:
+            return
+        futures = client.map(_render_frame, *[list(column) for column in zip(*args)][2:], retries=retries, pure=False)
+        for future, (i, path, *_) in zip(futures, args):
+            paths[future.key] = (i, path, future)
+        pending.update(futures)
 
     try:
-        for _ in range(in_flight):
-            if not submit_next():
-                break
+        submit(in_flight)
         written = []
-        for done, future in enumerate(pending, 1):
-            i, path = paths.pop(future.key)
-            _write_atomically(path, future.result())
-            future.release()
-            written.append((i, path))
-            if bar is not None:
-                bar.update(1)
-            elif callable(progress):
-                progress(done, total)
-            submit_next()
+        # Refill in batches when half the frames in flight have come back.
+        for batch in pending.batches():
+            for future, data in batch:
+                i, path, _ = paths.pop(future.key)
+                _write_atomically(path, data)
+                future.release()
+                written.append((i, path))
+                if bar is not None:
+                    bar.update(1)
+                elif callable(progress):
+                    progress(len(written), total)
+            if len(paths) <= in_flight // 2:
+                submit(in_flight - len(paths))
     finally:
         if bar is not None:
             bar.close()
+        if paths:  # stopped early (an error, Ctrl-C): the frames still out are not wanted
+            client.cancel([future for _, _, future in paths.values()])
         for _, remote in shared.values():
             remote.release()
     return [p for _, p in sorted(written)]
