@@ -68,6 +68,20 @@ impl Avx8 {
         unsafe { _mm256_store_ps(out.0.as_mut_ptr(), self.0) };
         out
     }
+
+    #[inline(always)]
+    pub(super) fn from_array(a: &[f32; 8]) -> Avx8 {
+        // Eight f32s from a live `[f32; 8]`; the unaligned load needs no alignment.
+        Avx8(unsafe { _mm256_loadu_ps(a.as_ptr()) })
+    }
+
+    #[inline(always)]
+    pub(super) fn to_array(self) -> [f32; 8] {
+        let mut a = [0f32; 8];
+        // Eight f32s into a local `[f32; 8]`, unaligned.
+        unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.0) };
+        a
+    }
 }
 
 impl Lanes for Avx8 {
@@ -130,10 +144,10 @@ mod tests {
     /// Every operation on eight pairs, in a function built for AVX2 as the real users are.
     #[target_feature(enable = "avx2")]
     fn ops(a: &[f32; 8], b: &[f32; 8]) -> ([[f32; 8]; 8], [u32; 5], [f32; 8]) {
-        let (f, g) = (Avx8::load(&F8(*a)), Avx8::load(&F8(*b)));
-        let wide = [f + g, f - g, f * g, f / g, -f, f.sqrt(), f.abs(), f.copysign(g)].map(|x| x.store().0);
+        let (f, g) = (Avx8::from_array(a), Avx8::from_array(b));
+        let wide = [f + g, f - g, f * g, f / g, -f, f.sqrt(), f.abs(), f.copysign(g)].map(Avx8::to_array);
         let masks = [f.lt(g), f.le(g), f.gt(g), f.ge(g), f.ne(g)].map(Avx8::bits);
-        (wide, masks, Avx8::select(f.lt(g), f, g).store().0)
+        (wide, masks, Avx8::select(f.lt(g), f, g).to_array())
     }
 
     /// As `math::lanes`'s test for the portable lane types: lane by lane, bit for bit.

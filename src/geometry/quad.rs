@@ -33,12 +33,6 @@ impl Quad {
         self.normal
     }
 
-    /// `n / (n · n)` for the unnormalised normal `n` (see [`Quad::intersect`]).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))] // for the AVX2 quad test
-    pub(crate) fn w(&self) -> Vec3 {
-        self.w
-    }
-
     /// The plane: unit normal `n` and offset `d`, `n · x = d` on the quad.
     pub fn plane(&self) -> (Vec3, f32) {
         (self.normal, self.plane_d)
