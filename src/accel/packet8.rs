@@ -3,10 +3,10 @@
 //! ([`super::World::seen_from`]), so going object by object, eight rays a test, replaces
 //! eight scalar tests (each a chain of dependent operations) with one. The shape tests
 //! are the geometry module's own, generic over the lane type ([`Quad::hits`],
-//! `Cylinder::hits`, `Cone::pointed_hits` here on eight AVX lanes, [`Avx8`];
-//! [`crate::geometry::sphere_hits`] on the portable [`F8`]): each lane does the scalar
-//! test's operations in the same order, so its answer is bit-identical to the scalar one
-//! and images do not depend on the path.
+//! [`crate::geometry::sphere_hits`], `Cylinder::hits`, `Cone::pointed_hits`), here on
+//! eight AVX lanes ([`Avx8`]): each lane does the scalar test's operations in the same
+//! order, so its answer is bit-identical to the scalar one and images do not depend on
+//! the path.
 //!
 //! Calling these is sound only where the processor has AVX2.
 //!
@@ -19,7 +19,7 @@ use super::avx8::Avx8;
 use super::lanes::Best8;
 use crate::geometry::{Cone, Cylinder, Nearest, Quad, Sphere, part, sphere_hits};
 use crate::math::Ray;
-use crate::math::lanes::{self, F8, Lanes};
+use crate::math::lanes::{self, Lanes};
 use std::arch::x86_64::*;
 
 /// Eight rays, lane by lane.
@@ -124,14 +124,10 @@ pub fn quad(q: &Quad, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
 #[target_feature(enable = "avx2")]
 #[inline]
 pub fn sphere(s: &Sphere, r: &Rays8, live: u32, best: &mut Best8, index: u32) {
-    let (o, d) = (r.o.map(|v| F8(v.to_array())), r.d.map(|v| F8(v.to_array())));
-    let (zero, radius) = (F8::splat(0.0), F8::splat(s.radius));
-    let (hit, t) = sphere_hits(o, d, lanes::splat3(s.center), radius, zero, F8(best.t));
-    let hit = F8::bits(hit) & live;
-    if hit != 0 {
-        let zero = Avx8::splat(0.0);
-        best.take_lanes(hit, [Avx8::load(&t), zero, zero], |_| part::SIDE, index);
-    }
+    let zero = Avx8::splat(0.0);
+    let (hit, t) =
+        sphere_hits(r.o, r.d, lanes::splat3(s.center), Avx8::splat(s.radius), zero, Avx8::from_array(&best.t));
+    best.take_lanes(Avx8::bits(hit) & live, [t, zero, zero], |_| part::SIDE, index);
 }
 
 /// Keeps the candidates a shape of several surfaces took, in the lanes `live`, as object
