@@ -14,6 +14,8 @@
 #![cfg_attr(not(target_arch = "x86_64"), allow(dead_code, unused_variables, unused_mut))]
 
 mod absorb;
+#[cfg(target_arch = "x86_64")]
+mod avx8;
 pub mod bvh;
 mod cull;
 mod eight_rays;

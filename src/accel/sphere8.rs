@@ -5,12 +5,12 @@
 //! answer is the scalar test's bit for bit, as with four lanes. Sphereflake (SPD balls
 //! 4, depth 5, 1 thread) 165 -> 158 ms, sphere-cloud-1M primary 1.42 -> 1.52 Mrays/s.
 
+#[cfg(target_arch = "x86_64")]
+use super::avx8::Avx8;
 use crate::geometry::Sphere;
 use crate::geometry::sphere_hits as hits;
 use crate::math::Ray;
 use crate::math::lanes::{self, F8, Lanes};
-#[cfg(target_arch = "x86_64")]
-use avx8::Avx8;
 
 /// Eight spheres (centre, radius) lane by lane plus their object indices (`u32::MAX` in
 /// unused lanes, whose NaN centres never hit). 160 bytes.
@@ -55,7 +55,8 @@ impl Sphere8 {
 
     /// The test on [`Avx8`] lanes: the same source, as 8-wide AVX instructions. (On
     /// [`F8`], whose loops LLVM is left to vectorize, it came out as a tangle of
-    /// shuffles and 4-wide halves, and the sphereflake rendered 20 % slower.)
+    /// shuffles and 4-wide halves, and the sphereflake rendered 20 % slower.) Built for
+    /// AVX2 and called only where it runs, as [`Avx8`] requires.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
@@ -76,122 +77,9 @@ impl Sphere8 {
     }
 }
 
-/// Eight lanes in one AVX register, each operation one AVX instruction with the `f32`
-/// operation's IEEE result (compares ordered and quiet: false on NaN, as in Rust).
-/// Private to [`Sphere8::intersect_avx2`], whose `#[target_feature(enable = "avx2")]`
-/// is what makes using these instructions sound: no value of it exists elsewhere.
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-mod avx8 {
-    use super::F8;
-    use crate::math::lanes::Lanes;
-    use std::arch::x86_64::*;
-    use std::ops::{Add, Div, Mul, Neg, Sub};
-
-    #[derive(Clone, Copy)]
-    pub(super) struct Avx8(__m256);
-
-    /// The mask of a compare: all bits set in the lanes that hold.
-    #[derive(Clone, Copy)]
-    pub(super) struct Mask8(__m256);
-
-    // SAFETY (every block below): these run only inlined into
-    // `Sphere8::intersect_avx2`, built for AVX2, called only where the processor has it.
-    macro_rules! binary {
-        ($trait:ident, $f:ident, $t:ident, $intr:ident) => {
-            impl $trait for $t {
-                type Output = $t;
-                #[inline(always)]
-                fn $f(self, o: $t) -> $t {
-                    $t(unsafe { $intr(self.0, o.0) })
-                }
-            }
-        };
-    }
-    binary!(Add, add, Avx8, _mm256_add_ps);
-    binary!(Sub, sub, Avx8, _mm256_sub_ps);
-    binary!(Mul, mul, Avx8, _mm256_mul_ps);
-    binary!(Div, div, Avx8, _mm256_div_ps);
-    binary!(BitAnd, bitand, Mask8, _mm256_and_ps);
-    binary!(BitOr, bitor, Mask8, _mm256_or_ps);
-    use std::ops::{BitAnd, BitOr};
-
-    impl Neg for Avx8 {
-        type Output = Avx8;
-        #[inline(always)]
-        fn neg(self) -> Avx8 {
-            Avx8(unsafe { _mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
-        }
-    }
-
-    impl Avx8 {
-        #[inline(always)]
-        pub(super) fn load(r: &F8) -> Avx8 {
-            // `F8` is 32-byte aligned.
-            Avx8(unsafe { _mm256_load_ps(r.0.as_ptr()) })
-        }
-
-        #[inline(always)]
-        pub(super) fn store(self) -> F8 {
-            let mut out = F8([0.0; 8]);
-            unsafe { _mm256_store_ps(out.0.as_mut_ptr(), self.0) };
-            out
-        }
-    }
-
-    impl Lanes for Avx8 {
-        type Mask = Mask8;
-
-        #[inline(always)]
-        fn splat(x: f32) -> Self {
-            Avx8(unsafe { _mm256_set1_ps(x) })
-        }
-        #[inline(always)]
-        fn sqrt(self) -> Self {
-            Avx8(unsafe { _mm256_sqrt_ps(self.0) })
-        }
-        #[inline(always)]
-        fn abs(self) -> Self {
-            Avx8(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
-        }
-        #[inline(always)]
-        fn copysign(self, sign: Self) -> Self {
-            unsafe {
-                let s = _mm256_set1_ps(-0.0);
-                Avx8(_mm256_or_ps(_mm256_andnot_ps(s, self.0), _mm256_and_ps(s, sign.0)))
-            }
-        }
-        #[inline(always)]
-        fn lt(self, o: Self) -> Mask8 {
-            Mask8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn le(self, o: Self) -> Mask8 {
-            Mask8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn gt(self, o: Self) -> Mask8 {
-            Mask8(unsafe { _mm256_cmp_ps::<_CMP_GT_OQ>(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn ge(self, o: Self) -> Mask8 {
-            Mask8(unsafe { _mm256_cmp_ps::<_CMP_GE_OQ>(self.0, o.0) })
-        }
-        #[inline(always)]
-        fn select(mask: Mask8, a: Self, b: Self) -> Self {
-            Avx8(unsafe { _mm256_blendv_ps(b.0, a.0, mask.0) })
-        }
-        #[inline(always)]
-        fn bits(mask: Mask8) -> u32 {
-            unsafe { _mm256_movemask_ps(mask.0) as u32 }
-        }
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Vec3;
 
     #[test]
     fn every_lane_matches_the_scalar_test_bit_for_bit() {

@@ -1,4 +1,5 @@
 use super::{Hit, Nearest, Surface, disc_bounds, part, turn_fraction};
+use crate::math::lanes::{Lanes, V3, add_scaled, dot, splat3, sub, sub_scaled};
 use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis, unit_or};
 
 /// Finite right circular cone: a disc of `radius` at `base`, changing linearly to a disc
@@ -70,56 +71,65 @@ impl Cone {
         }
     }
 
-    /// The pointed cone, solved relative to its apex.
+    /// The pointed cone: [`Cone::pointed_hits`] for one ray.
     fn intersect_pointed(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let o = ray.origin - self.apex();
-        let da = ray.dir.dot(self.axis);
-        let d_perp = ray.dir - da * self.axis;
+        let c = |v: Vec3| v.to_array();
+        self.pointed_hits::<f32>(c(ray.origin), c(ray.dir), t_min, t_max).hit()
+    }
+
+    /// The pointed cone, solved relative to its apex, lane by lane ([`Lanes`]: one ray, or
+    /// several against this cone): the nearest candidate per lane. The one pointed-cone
+    /// test, for every width.
+    #[inline(always)]
+    pub(crate) fn pointed_hits<L: Lanes>(&self, o: V3<L>, d: V3<L>, t_min: L, t_max: L) -> Nearest<L> {
+        let zero = L::splat(0.0);
+        let axis = splat3::<L>(self.axis);
+        let o = sub(o, splat3(self.apex()));
+        let da = dot(d, axis);
+        let d_perp = sub_scaled(d, da, axis);
         let mut best = Nearest::new(t_min, t_max);
 
         // Side: |w_perp|² = k² (w·axis)² with w relative to the apex. Solved from the
         // ray's point of closest approach to the apex rather than its origin: the
         // coefficients are then as small as the geometry allows, which keeps b² - a c
         // from cancelling for far cameras and for rays skimming the apex.
-        let t0 = -o.dot(ray.dir);
-        let o0 = o + t0 * ray.dir;
-        let oa0 = o0.dot(self.axis);
-        let o_perp = o0 - oa0 * self.axis;
+        let t0 = -dot(o, d);
+        let o0 = add_scaled(o, t0, d);
+        let oa0 = dot(o0, axis);
+        let o_perp = sub_scaled(o0, oa0, axis);
         let k = self.radius / self.height;
-        let k2 = k * k;
-        let a = d_perp.length_squared() - k2 * da * da;
-        let b = o_perp.dot(d_perp) - k2 * oa0 * da;
-        let c = o_perp.length_squared() - k2 * oa0 * oa0;
+        let k2 = L::splat(k * k);
+        let a = dot(d_perp, d_perp) - k2 * da * da;
+        let b = dot(o_perp, d_perp) - k2 * oa0 * da;
+        let c = dot(o_perp, o_perp) - k2 * oa0 * oa0;
         let disc = b * b - a * c;
-        if disc >= 0.0 {
+        let real = disc.ge(zero);
+        if L::bits(real) != 0 {
             let q = -(b + disc.sqrt().copysign(b));
             // a ≈ 0 when the ray is parallel to a generator line: the quadratic becomes
             // linear, c / q is then its root and q / a (the root that went to infinity)
             // is skipped instead of being divided out.
-            let far = if a != 0.0 { q / a } else { f32::NAN };
+            let far = L::select(a.ne(zero), q / a, L::splat(f32::NAN));
+            let base = L::splat(-self.height);
             for dt in [c / q, far] {
                 let t = t0 + dt;
-                if best.improves(t) {
-                    // Between base (-height) and apex (0): excludes the mirror nappe.
-                    let s = oa0 + dt * da;
-                    if (-self.height..=0.0).contains(&s) {
-                        best.take(t, part::SIDE);
-                    }
-                }
+                // Between base (-height) and apex (0): excludes the mirror nappe.
+                let s = oa0 + dt * da;
+                best.take(real & best.improves(t) & s.ge(base) & s.le(zero), t, part::SIDE);
             }
         }
 
-        if self.cap && da != 0.0 {
-            let oa = o.dot(self.axis);
-            let t = (-self.height - oa) / da;
-            if best.improves(t) {
-                let radial = (o - oa * self.axis) + t * d_perp;
-                if radial.length_squared() <= self.radius * self.radius {
-                    best.take(t, part::BASE_CAP);
-                }
+        if self.cap {
+            let across = da.ne(zero);
+            if L::bits(across) != 0 {
+                let oa = dot(o, axis);
+                let t = (L::splat(-self.height) - oa) / da;
+                let radial = add_scaled(sub_scaled(o, oa, axis), t, d_perp);
+                let inside = dot(radial, radial).le(L::splat(self.radius * self.radius));
+                best.take(across & best.improves(t) & inside, t, part::BASE_CAP);
             }
         }
-        best.hit()
+        best
     }
 
     /// The truncated cone, solved relative to the middle of its axis: radius
@@ -157,7 +167,7 @@ impl Cone {
                 if best.improves(t) {
                     let s = oa0 + dt * da;
                     if (-half..=half).contains(&s) {
-                        best.take(t, part::SIDE);
+                        best.take(true, t, part::SIDE);
                     }
                 }
             }
@@ -174,7 +184,7 @@ impl Cone {
                 }
                 let t = (plane - oa) / da;
                 if best.improves(t) && (o_radial + t * d_perp).length_squared() <= r * r {
-                    best.take(t, id);
+                    best.take(true, t, id);
                 }
             }
         }

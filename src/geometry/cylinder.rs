@@ -1,4 +1,5 @@
 use super::{Hit, Nearest, Surface, disc_bounds, part, turn_fraction};
+use crate::math::lanes::{Lanes, V3, add_scaled, dot, splat3, sub, sub_scaled};
 use crate::math::{Aabb, Ray, Vec2, Vec3, orthonormal_basis, unit_or};
 
 /// Finite circular cylinder from `base` to `base + axis * height`, optionally closed by
@@ -24,45 +25,56 @@ impl Cylinder {
     /// never hits the wall (even running along it) and one parallel to the caps never
     /// hits a cap.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let o = ray.origin - self.base;
-        let oa = o.dot(self.axis);
-        let da = ray.dir.dot(self.axis);
-        let o_perp = o - oa * self.axis;
-        let d_perp = ray.dir - da * self.axis;
-        let r2 = self.radius * self.radius;
+        let c = |v: Vec3| v.to_array();
+        self.hits::<f32>(c(ray.origin), c(ray.dir), t_min, t_max).hit()
+    }
+
+    /// [`Cylinder::intersect`] lane by lane ([`Lanes`]: one ray, or several against this
+    /// cylinder): the nearest candidate per lane. The one cylinder test, for every width.
+    #[inline(always)]
+    pub(crate) fn hits<L: Lanes>(&self, o: V3<L>, d: V3<L>, t_min: L, t_max: L) -> Nearest<L> {
+        let zero = L::splat(0.0);
+        let axis = splat3::<L>(self.axis);
+        let o = sub(o, splat3(self.base));
+        let oa = dot(o, axis);
+        let da = dot(d, axis);
+        let o_perp = sub_scaled(o, oa, axis);
+        let d_perp = sub_scaled(d, da, axis);
+        let r2 = L::splat(self.radius * self.radius);
         let mut best = Nearest::new(t_min, t_max);
 
         // Side: |o_perp + t d_perp|² = r², half-b form. As for the sphere, the
         // discriminant is taken from the distance of closest approach in the cross
         // section, which avoids the cancellation of b² - a c.
-        let a = d_perp.length_squared();
-        if a > 1e-12 {
-            let b = o_perp.dot(d_perp);
-            let closest = o_perp - (b / a) * d_perp;
-            let disc = a * (r2 - closest.length_squared());
-            if disc >= 0.0 {
-                let c = o_perp.length_squared() - r2;
+        let a = dot(d_perp, d_perp);
+        let wall = a.gt(L::splat(1e-12));
+        if L::bits(wall) != 0 {
+            let b = dot(o_perp, d_perp);
+            let closest = sub_scaled(o_perp, b / a, d_perp);
+            let disc = a * (r2 - dot(closest, closest));
+            let real = wall & disc.ge(zero);
+            if L::bits(real) != 0 {
+                let c = dot(o_perp, o_perp) - r2;
                 let q = -(b + disc.sqrt().copysign(b));
+                let height = L::splat(self.height);
                 for t in [c / q, q / a] {
-                    if best.improves(t) {
-                        let h = oa + t * da;
-                        if (0.0..=self.height).contains(&h) {
-                            best.take(t, part::SIDE);
-                        }
-                    }
+                    let h = oa + t * da;
+                    best.take(real & best.improves(t) & h.ge(zero) & h.le(height), t, part::SIDE);
                 }
             }
         }
 
-        if self.caps && da != 0.0 {
-            for (plane, id) in [(0.0, part::BASE_CAP), (self.height, part::TOP_CAP)] {
-                let t = (plane - oa) / da;
-                if best.improves(t) && (o_perp + t * d_perp).length_squared() <= r2 {
-                    best.take(t, id);
+        if self.caps {
+            let across = da.ne(zero);
+            if L::bits(across) != 0 {
+                for (plane, id) in [(0.0, part::BASE_CAP), (self.height, part::TOP_CAP)] {
+                    let t = (L::splat(plane) - oa) / da;
+                    let p = add_scaled(o_perp, t, d_perp);
+                    best.take(across & best.improves(t) & dot(p, p).le(r2), t, id);
                 }
             }
         }
-        best.hit()
+        best
     }
 
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> Surface {

@@ -26,6 +26,7 @@ pub use sphere::{Sphere, hits as sphere_hits};
 pub use transformed::{Transformed, affine, apply as transform, instance};
 pub use triangle::Triangle;
 
+use crate::math::lanes::Lanes;
 use crate::math::{Aabb, Ray, Vec2, Vec3};
 
 /// The result of an intersection test, before shading.
@@ -134,34 +135,49 @@ impl Shape {
     }
 }
 
-/// Keeps the nearest accepted candidate: the shapes made of several surfaces must
-/// return the closest one whatever order they are tested in.
-pub(crate) struct Nearest {
-    t_min: f32,
-    t: f32,
-    part: Option<u8>,
+/// Keeps the nearest accepted candidate, lane by lane ([`Lanes`]: one ray, or several
+/// against one shape): the shapes made of several surfaces must return the closest one
+/// whatever order they are tested in. The part taken is kept as a number, -1 where none
+/// was, so that the wide lanes carry it as they carry `t`.
+pub(crate) struct Nearest<L: Lanes> {
+    t_min: L,
+    /// The nearest distance taken, else `t_max`.
+    pub(crate) t: L,
+    /// The [`part`] of that candidate, else -1.
+    pub(crate) part: L,
 }
 
-impl Nearest {
-    pub(crate) fn new(t_min: f32, t_max: f32) -> Self {
-        Nearest { t_min, t: t_max, part: None }
+impl<L: Lanes> Nearest<L> {
+    #[inline(always)]
+    pub(crate) fn new(t_min: L, t_max: L) -> Self {
+        Nearest { t_min, t: t_max, part: L::splat(-1.0) }
     }
 
-    /// True if `t` is in range and nearer than the best so far; the caller then checks
-    /// the surface's own bounds and calls [`Nearest::take`].
-    #[inline]
-    pub(crate) fn improves(&self, t: f32) -> bool {
-        t > self.t_min && t < self.t
+    /// Where `t` is in range and nearer than the best so far; the caller then checks the
+    /// surface's own bounds and calls [`Nearest::take`] with both.
+    #[inline(always)]
+    pub(crate) fn improves(&self, t: L) -> L::Mask {
+        t.gt(self.t_min) & t.lt(self.t)
     }
 
-    #[inline]
-    pub(crate) fn take(&mut self, t: f32, part: u8) {
-        self.t = t;
-        self.part = Some(part);
+    /// Takes distance `t` as part `part` in the lanes of `ok`.
+    #[inline(always)]
+    pub(crate) fn take(&mut self, ok: L::Mask, t: L, part: u8) {
+        self.t = L::select(ok, t, self.t);
+        self.part = L::select(ok, L::splat(part as f32), self.part);
     }
 
+    /// The lanes where a candidate was taken.
+    #[inline(always)]
+    pub(crate) fn taken(&self) -> L::Mask {
+        self.part.ge(L::splat(0.0))
+    }
+}
+
+impl Nearest<f32> {
+    #[inline(always)]
     pub(crate) fn hit(self) -> Option<Hit> {
-        self.part.map(|part| Hit { prim: 0, t: self.t, uv: Vec2::ZERO, part })
+        self.taken().then_some(Hit { prim: 0, t: self.t, uv: Vec2::ZERO, part: self.part as u8 })
     }
 }
 

@@ -1,4 +1,5 @@
 use super::{Hit, Surface, part};
+use crate::math::lanes::{Lanes, V3, add_scaled, cross, dot, splat3, sub};
 use crate::math::{Aabb, Ray, Vec2, Vec3};
 
 /// Parallelogram `corner + a edge_u + b edge_v`, `a, b ∈ [0, 1]`.
@@ -32,12 +33,6 @@ impl Quad {
         self.normal
     }
 
-    /// `n / (n · n)` for the unnormalised normal `n` (see [`Quad::intersect`]).
-    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))] // for the AVX2 quad test
-    pub(crate) fn w(&self) -> Vec3 {
-        self.w
-    }
-
     /// The plane: unit normal `n` and offset `d`, `n · x = d` on the quad.
     pub fn plane(&self) -> (Vec3, f32) {
         (self.normal, self.plane_d)
@@ -46,21 +41,39 @@ impl Quad {
     /// Two-sided. Edges are inclusive; a ray parallel to the plane (even one lying in
     /// it) misses.
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        let denom = self.normal.dot(ray.dir);
-        if denom.abs() <= 1e-9 {
-            return None;
+        let c = |v: Vec3| v.to_array();
+        let (hit, t, a, b) = self.hits::<f32>(c(ray.origin), c(ray.dir), t_min, t_max);
+        hit.then_some(Hit { prim: 0, t, uv: Vec2::new(a, b), part: part::SIDE })
+    }
+
+    /// Where rays (origin `o`, direction `d`) meet the quad, lane by lane ([`Lanes`]: one
+    /// ray, or several against this quad): whether they do within `(t_min, t_max)`, and
+    /// the distance and coordinates (a, b) there (0 in lanes that miss early). The one
+    /// quad test, for every width, as [`super::sphere_hits`] is the sphere's.
+    #[inline(always)]
+    pub fn hits<L: Lanes>(&self, o: V3<L>, d: V3<L>, t_min: L, t_max: L) -> (L::Mask, L, L, L) {
+        let zero = L::splat(0.0);
+        let n = splat3::<L>(self.normal);
+        let denom = dot(n, d);
+        // `|denom| > 1e-9` rather than `!(|denom| <= 1e-9)`: they differ only on a NaN,
+        // whose `t` is NaN and misses below.
+        let facing = denom.abs().gt(L::splat(1e-9));
+        if L::bits(facing) == 0 {
+            return (facing, zero, zero, zero);
         }
-        let t = (self.plane_d - self.normal.dot(ray.origin)) / denom;
-        if !(t > t_min && t < t_max) {
-            return None;
+        let t = (L::splat(self.plane_d) - dot(n, o)) / denom;
+        let hit = facing & t.gt(t_min) & t.lt(t_max);
+        if L::bits(hit) == 0 {
+            return (hit, zero, zero, zero);
         }
-        let p = ray.at(t) - self.corner;
-        let a = self.w.dot(p.cross(self.edge_v));
-        let b = self.w.dot(self.edge_u.cross(p));
-        if !((0.0..=1.0).contains(&a) && (0.0..=1.0).contains(&b)) {
-            return None;
-        }
-        Some(Hit { prim: 0, t, uv: Vec2::new(a, b), part: part::SIDE })
+        // `ray.at(t) - corner`.
+        let p = sub(add_scaled(o, t, d), splat3(self.corner));
+        let w = splat3::<L>(self.w);
+        let a = dot(w, cross(p, splat3(self.edge_v)));
+        let b = dot(w, cross(splat3(self.edge_u), p));
+        let one = L::splat(1.0);
+        let within = |x: L| x.ge(zero) & x.le(one);
+        (hit & within(a) & within(b), t, a, b)
     }
 
     #[inline]

@@ -27,6 +27,8 @@ pub trait Lanes:
     fn le(self, other: Self) -> Self::Mask;
     fn gt(self, other: Self) -> Self::Mask;
     fn ge(self, other: Self) -> Self::Mask;
+    /// Unordered, as Rust's `!=`: true where either side is NaN.
+    fn ne(self, other: Self) -> Self::Mask;
     /// `a` where `mask`, else `b`.
     fn select(mask: Self::Mask, a: Self, b: Self) -> Self;
     /// The lanes of `mask` as bits, lane 0 lowest.
@@ -67,6 +69,10 @@ impl Lanes for f32 {
     #[inline(always)]
     fn ge(self, other: Self) -> bool {
         self >= other
+    }
+    #[inline(always)]
+    fn ne(self, other: Self) -> bool {
+        self != other
     }
     #[inline(always)]
     fn select(mask: bool, a: Self, b: Self) -> Self {
@@ -114,6 +120,10 @@ impl Lanes for Vec4 {
         self.cmpge(other)
     }
     #[inline(always)]
+    fn ne(self, other: Self) -> BVec4A {
+        self.cmpne(other)
+    }
+    #[inline(always)]
     fn select(mask: BVec4A, a: Self, b: Self) -> Self {
         Vec4::select(mask, a, b)
     }
@@ -148,6 +158,12 @@ pub fn sub<L: Lanes>(a: V3<L>, b: V3<L>) -> V3<L> {
 #[inline(always)]
 pub fn sub_scaled<L: Lanes>(a: V3<L>, s: L, b: V3<L>) -> V3<L> {
     [a[0] - s * b[0], a[1] - s * b[1], a[2] - s * b[2]]
+}
+
+/// `a + s·b`, axis by axis (glam's `a + s * b`).
+#[inline(always)]
+pub fn add_scaled<L: Lanes>(a: V3<L>, s: L, b: V3<L>) -> V3<L> {
+    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
 }
 
 /// A glam vector as one lane type per axis, the same in every lane.
@@ -237,6 +253,10 @@ impl Lanes for F8 {
         self.compare(o, |a, b| a >= b)
     }
     #[inline(always)]
+    fn ne(self, o: Self) -> M8 {
+        self.compare(o, |a, b| a != b)
+    }
+    #[inline(always)]
     fn select(mask: M8, a: Self, b: Self) -> Self {
         F8(std::array::from_fn(|i| if mask.0[i] { a.0[i] } else { b.0[i] }))
     }
@@ -247,40 +267,49 @@ impl Lanes for F8 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    /// Every operation of the wide lane types, lane by lane, is the `f32` one bit for bit
-    /// (NaN, infinities, signed zeros included): what makes one test's code answer the
-    /// same at every width.
-    #[test]
-    fn wide_lanes_are_f32_lane_by_lane() {
+    /// Test numbers: ordinary ones in [-4, 4) and, one time in two or so, a special one
+    /// (NaN, infinities, signed zeros, tiny and huge).
+    pub(crate) fn numbers() -> impl FnMut() -> f32 {
         let specials = [0.0, -0.0, 1.0, -1.5, 1e-30, -3e30, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 2.5];
         let mut s = 7u64;
-        let mut next = || {
+        move || {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             match (s >> 60) as usize {
                 k if k < specials.len() => specials[k],
                 _ => ((s >> 33) as f32 / (1u64 << 31) as f32) * 8.0 - 4.0,
             }
-        };
+        }
+    }
+
+    /// Every operation of [`Lanes`] on one pair of `f32`s: results as bits, compares
+    /// (`lt`, `le`, `gt`, `ge`, `ne`), and `select` on `lt`.
+    pub(crate) fn scalar_ops(x: f32, y: f32) -> ([u32; 8], [bool; 5], u32) {
+        let bits = [x + y, x - y, x * y, x / y, -x, x.sqrt(), x.abs(), x.copysign(y)].map(f32::to_bits);
+        let masks = [x.lt(y), x.le(y), x.gt(y), x.ge(y), Lanes::ne(x, y)];
+        (bits, masks, <f32 as Lanes>::select(x.lt(y), x, y).to_bits())
+    }
+
+    /// Every operation of the wide lane types, lane by lane, is the `f32` one bit for bit
+    /// (NaN, infinities, signed zeros included): what makes one test's code answer the
+    /// same at every width. (`accel::avx8` checks its AVX lanes the same way.)
+    #[test]
+    fn wide_lanes_are_f32_lane_by_lane() {
+        let mut next = numbers();
         for _ in 0..2000 {
             let (a, b): ([f32; 8], [f32; 8]) = (std::array::from_fn(|_| next()), std::array::from_fn(|_| next()));
-            let ops = |x: f32, y: f32| {
-                let bits = [x + y, x - y, x * y, x / y, -x, x.sqrt(), x.abs(), x.copysign(y)].map(f32::to_bits);
-                let masks = [x.lt(y), x.le(y), x.gt(y), x.ge(y)];
-                (bits, masks, <f32 as Lanes>::select(x.lt(y), x, y).to_bits())
-            };
             let (f, g) = (F8(a), F8(b));
             let wide8 = [f + g, f - g, f * g, f / g, -f, f.sqrt(), f.abs(), f.copysign(g)];
-            let masks8 = [f.lt(g), f.le(g), f.gt(g), f.ge(g)].map(F8::bits);
+            let masks8 = [f.lt(g), f.le(g), f.gt(g), f.ge(g), f.ne(g)].map(F8::bits);
             let select8 = F8::select(f.lt(g), f, g);
             let (v, w) = (Vec4::from_slice(&a[..4]), Vec4::from_slice(&b[..4]));
             let wide4 = [v + w, v - w, v * w, v / w, -v, v.sqrt(), Lanes::abs(v), Lanes::copysign(v, w)];
-            let masks4 = [v.lt(w), v.le(w), v.gt(w), v.ge(w)].map(Vec4::bits);
+            let masks4 = [v.lt(w), v.le(w), v.gt(w), v.ge(w), Lanes::ne(v, w)].map(Vec4::bits);
             let select4 = <Vec4 as Lanes>::select(v.lt(w), v, w);
             for lane in 0..8 {
-                let (bits, masks, select) = ops(a[lane], b[lane]);
+                let (bits, masks, select) = scalar_ops(a[lane], b[lane]);
                 assert_eq!(wide8.map(|x| x.0[lane].to_bits()), bits, "{} {}", a[lane], b[lane]);
                 assert_eq!(masks8.map(|m| m >> lane & 1 == 1), masks);
                 assert_eq!(select8.0[lane].to_bits(), select);
