@@ -2,8 +2,11 @@
 """Writes a test scene of thousands of mixed primitives as NFF, for
 bench/compare-nff.sh: a smooth-shaded torus mesh (patches), spheres, cylinders and
 cones on a floor, some reflective, one glass; three lights, as the SPD scenes have.
+`--rings` writes instead 40 stacked rings of 25 spheres joined by thin tilted
+cylinders (2,000 primitives, after the SPD's "rings"), whose long diagonal shapes
+make loose bounding boxes.
 
-    python3 bench/mixed_nff.py [--mesh 64] [--spheres 1000] > mixed.nff
+    python3 bench/mixed_nff.py [--mesh 64] [--spheres 1000] [--rings] > mixed.nff
 """
 import argparse
 import math
@@ -15,7 +18,11 @@ def main():
     ap.add_argument("--mesh", type=int, default=64, help="torus segments each way (2 n^2 triangles)")
     ap.add_argument("--spheres", type=int, default=1000)
     ap.add_argument("--sticks", type=int, default=300, help="cylinders and cones")
+    ap.add_argument("--rings", action="store_true", help="the rings scene instead")
     a = ap.parse_args()
+    if a.rings:
+        print("\n".join(rings()))
+        return
     rnd = random.Random(7)
     out = ["v", "from 0 -9 5", "at 0 0 0.8", "up 0 0 1", "angle 45", "hither 0.01", "resolution 512 512",
            "b 0.078 0.361 0.753", "l 4 -3 8", "l -6 -4 5", "l 1 6 7"]
@@ -51,6 +58,21 @@ def main():
     # A glass ball in front.
     out += ["f 1 1 1 0.1 0.5 100 0.85 1.5", "s 0 -3 0.8 0.8"]
     print("\n".join(out))
+
+
+def rings():
+    out = ["v", "from 2.1 1.3 1.7", "at 0 0 0", "up 0 0 1", "angle 45", "hither 0.01", "resolution 512 512",
+           "b 0.078 0.361 0.753", "l 1.86 8.7 10.7", "l 5.5 -3.1 2.2", "l -8.4 -2 5.9",
+           "f 1 0.75 0.33 0.8 0.2 10 0 1"]
+    for ring in range(40):
+        r, z = 0.2 + 0.02 * ring, -1.0 + 0.05 * ring
+        cx, cy = 0.3 * math.cos(ring), 0.3 * math.sin(ring)
+        angles = [2 * math.pi * k / 25 + ring * 0.3 for k in range(25)]
+        pts = [(cx + r * math.cos(a), cy + r * math.sin(a), z + 0.05 * math.sin(3 * a)) for a in angles]
+        for i, p in enumerate(pts):
+            q = pts[(i + 1) % len(pts)]
+            out += ["s %.4f %.4f %.4f 0.02" % p, "c", "%.4f %.4f %.4f 0.012" % p, "%.4f %.4f %.4f 0.012" % q]
+    return out + ["f 0.8 0.8 0.8 1 0 0 0 0", "p 4", "-4 -4 -1.2", "4 -4 -1.2", "4 4 -1.2", "-4 4 -1.2"]
 
 
 if __name__ == "__main__":
