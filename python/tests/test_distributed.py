@@ -69,6 +69,45 @@ def test_render_many_writes_every_frame(local_client, tmp_path):
     assert sorted(os.listdir(tmp_path / "out")) == sorted(os.path.basename(p) for p in paths)
     # Different frames: the camera moved.
     assert len({open(p, "rb").read() for p in paths}) == 5
+    if os.name == "posix":  # a new file's usual mode, not mkstemp's private 0600
+        mask = os.umask(0o022)
+        os.umask(mask)
+        assert {os.stat(p).st_mode & 0o777 for p in paths} == {0o666 & ~mask}
+
+
+def test_render_many_packs_frames_into_tasks(local_client, tmp_path):
+    """Several frames to a task, a task never mixing two geometries, single frames at
+    the end: the same files as one frame a task, in order, each the local render."""
+    a, b = room(width=24, height=20), whitted.load(ROOT / "scenes" / "shapes.toml", width=24, height=20)
+    frames = [s.copy(position=(k, 5, 30)) for s in (a, b, a) for k in range(8)]
+
+    class Spy:
+        """The client, noting the frames of each task sent."""
+
+        def __init__(self, client):
+            self.client, self.tasks = client, []
+
+        def map(self, func, bases, jobs, **kw):
+            self.tasks += [(b, len(j)) for b, j in zip(bases, jobs)]
+            return self.client.map(func, bases, jobs, **kw)
+
+        def __getattr__(self, name):
+            return getattr(self.client, name)
+
+    spy = Spy(local_client)
+    paths = wd.render_many(frames, spy, tmp_path / "out", progress=False, frames_per_task=3)
+    sizes = [n for _, n in spy.tasks]
+    # 24 frames on 2 threads, all sent at once: a task takes (frames left) / 8 of them,
+    # at most 3, and ends where the scene changes (frame 8); never two scenes.
+    assert sizes == [3, 2, 2, 1, 2] + [1] * 14, sizes
+    assert len({b.key for b, _ in spy.tasks}) == 2
+    assert [os.path.basename(p) for p in paths] == [f"frame_{i:04d}.png" for i in range(24)]
+    for frame, path in zip(frames, paths):
+        with open(path, "rb") as f:
+            assert f.read() == whitted.to_png_bytes(whitted.render(frame))
+    assert sorted(os.listdir(tmp_path / "out")) == sorted(os.path.basename(p) for p in paths)
+    with pytest.raises(ValueError, match="frames_per_task"):
+        wd.render_many(frames, local_client, tmp_path / "x", progress=False, frames_per_task=0)
 
 
 def test_scenes_built_in_code_render_on_the_cluster(local_client):

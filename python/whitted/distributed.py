@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import itertools
 import os
-import tempfile
+import secrets
 from typing import Any, Iterable, List, Optional, Sequence
 
 import numpy as np
@@ -46,6 +46,12 @@ def _render_frame(base: _Base, camera, spp, max_depth, frame=None) -> bytes:
     scene._frame = frame
     image = whitted.render(scene, threads=1)
     return whitted.to_png_bytes(image)
+
+
+def _render_frames(base: _Base, frames) -> List[bytes]:
+    """One task of :func:`render_many`: frames (camera, spp, max_depth, frame) of one
+    geometry, one after the other, as PNG bytes."""
+    return [_render_frame(base, *frame) for frame in frames]
 
 
 def _bar(progress: Any, total: Optional[int], unit: str):
@@ -107,7 +113,10 @@ def render_tiles(
 
 def _write_atomically(path: str, data: bytes) -> None:
     folder = os.path.dirname(path) or "."
-    fd, tmp = tempfile.mkstemp(prefix=".whitted-", suffix=".tmp", dir=folder)
+    # Not mkstemp: it makes the file private (0600), and an image should get a new
+    # file's usual mode (0666 less the umask), as open() gives it.
+    tmp = os.path.join(folder, f".whitted-{os.getpid()}-{secrets.token_hex(8)}.tmp")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -133,35 +142,55 @@ def render_many(
     in_flight: Optional[int] = None,
     progress: Any = True,
     numbers: Optional[Sequence[int]] = None,
+    frames_per_task: Optional[int] = None,
 ) -> List[str]:
     """Renders each scene (frames of an animation, say) on the cluster to a numbered PNG
     file in `out_dir` (``name.format(i)``), each written (atomically) as it arrives.
 
     Workers send back PNG bytes, not float images, and at most `in_flight` frames are
-    out at a time (default: four times the cluster's threads, sent in batches), so memory
-    stays bounded however many frames there are. Scenes that share geometry (made with ``scene.copy(...)``
-    or ``scene.at_frame(...)``) send it once. `numbers`, if given, numbers the files
-    instead of the scenes' positions. Returns the paths in frame order.
+    out at a time (default: four times the cluster's threads times `frames_per_task`,
+    sent in batches), so memory stays bounded however many frames there are. A task
+    renders up to `frames_per_task` frames one after the other (default: enough that
+    each thread still gets eight tasks, at most 4; 1 when the number of scenes is
+    unknown), fewer as the last frames go out: every task costs the scheduler and the
+    client some milliseconds of CPU, which on a small cluster comes out of the
+    rendering. Scenes that share geometry (made with
+    ``scene.copy(...)`` or ``scene.at_frame(...)``) send it once. `numbers`, if given,
+    numbers the files instead of the scenes' positions. Returns the paths in frame order.
     """
     from distributed import as_completed
 
     out_dir = os.fspath(out_dir)
     os.makedirs(out_dir, exist_ok=True)
-    if in_flight is None:
-        threads = sum(client.nthreads().values()) or 1
-        in_flight = 4 * threads
-    in_flight = _count("in_flight", in_flight, 1, 1 << 20)
+    threads = sum(client.nthreads().values()) or 1
     total = len(scenes) if hasattr(scenes, "__len__") else None
+    if frames_per_task is None:
+        frames_per_task = 1 if total is None else max(1, min(4, total // (8 * threads)))
+    per_task = _count("frames_per_task", frames_per_task, 1, 1 << 20)
+    if in_flight is None:
+        in_flight = 4 * threads * per_task
+    in_flight = _count("in_flight", in_flight, 1, 1 << 20)
     bar = _bar(progress, total, "frame")
     shared = {}  # id(base) -> (base, future): geometry sent once
-    paths: dict = {}
+    tasks: dict = {}  # future key -> (future, [(i, path), ...])
+    out = 0  # frames in flight
     pending = as_completed(with_results=True)
     frames = enumerate(scenes)
 
+    def task_size(i: int) -> int:
+        """Frames for the task that frame `i` would start: `per_task`, tapering to one
+        as the last frames go out (guided scheduling), so that the workers finish
+        together instead of one waiting on another's last long task."""
+        if total is None:
+            return per_task
+        return max(1, min(per_task, (total - i) // (4 * threads)))
+
     def submit(n: int) -> None:
-        """Sends the next `n` frames in one message (a task each): a round trip to the
-        scheduler per frame would cost the client several ms of CPU a frame."""
-        args = []
+        """Sends the next `n` frames, `per_task` to a task (fewer where the geometry
+        changes), in one message: a round trip to the scheduler per task would cost the
+        client several ms of CPU a task."""
+        nonlocal out
+        bases, jobs, files, limit = [], [], [], 0
         for i, scene in itertools.islice(frames, n):
             if not isinstance(scene, Scene):
                 raise TypeError(f"scenes[{i}]: expected whitted.Scene, got {type(scene).__name__}")
@@ -172,13 +201,21 @@ def render_many(
             s = scene.spp if spp is None else spp
             d = scene.max_depth if max_depth is None else max_depth
             number = i if numbers is None else numbers[i]
-            args.append((i, os.path.join(out_dir, name.format(number)), shared[key][1], scene.camera, s, d,
-                         getattr(scene, "_frame", None)))
-        if not args:
+            job = (scene.camera, s, d, getattr(scene, "_frame", None))
+            path = os.path.join(out_dir, name.format(number))
+            if not bases or bases[-1] is not shared[key][1] or len(jobs[-1]) >= limit:
+                bases.append(shared[key][1])
+                jobs.append([])
+                files.append([])
+                limit = task_size(i)
+            jobs[-1].append(job)
+            files[-1].append((i, path))
+        if not jobs:
             return
-        futures = client.map(_render_frame, *[list(column) for column in zip(*args)][2:], retries=retries, pure=False)
-        for future, (i, path, *_) in zip(futures, args):
-            paths[future.key] = (i, path, future)
+        futures = client.map(_render_frames, bases, jobs, retries=retries, pure=False)
+        for future, chunk in zip(futures, files):
+            tasks[future.key] = (future, chunk)
+            out += len(chunk)
         pending.update(futures)
 
     try:
@@ -186,22 +223,24 @@ def render_many(
         written = []
         # Refill in batches when half the frames in flight have come back.
         for batch in pending.batches():
-            for future, data in batch:
-                i, path, _ = paths.pop(future.key)
-                _write_atomically(path, data)
+            for future, images in batch:
+                _, chunk = tasks.pop(future.key)
+                for (i, path), data in zip(chunk, images):
+                    _write_atomically(path, data)
+                    written.append((i, path))
+                    if bar is not None:
+                        bar.update(1)
+                    elif callable(progress):
+                        progress(len(written), total)
+                out -= len(chunk)
                 future.release()
-                written.append((i, path))
-                if bar is not None:
-                    bar.update(1)
-                elif callable(progress):
-                    progress(len(written), total)
-            if len(paths) <= in_flight // 2:
-                submit(in_flight - len(paths))
+            if out <= in_flight // 2:
+                submit(in_flight - out)
     finally:
         if bar is not None:
             bar.close()
-        if paths:  # stopped early (an error, Ctrl-C): the frames still out are not wanted
-            client.cancel([future for _, _, future in paths.values()])
+        if tasks:  # stopped early (an error, Ctrl-C): the frames still out are not wanted
+            client.cancel([future for future, _ in tasks.values()])
         for _, remote in shared.values():
             remote.release()
     return [p for _, p in sorted(written)]
