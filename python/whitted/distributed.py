@@ -154,9 +154,9 @@ def render_many(
     each thread still gets eight tasks, at most 4; 1 when the number of scenes is
     unknown), fewer as the last frames go out: every task costs the scheduler and the
     client some milliseconds of CPU, which on a small cluster comes out of the
-    rendering. Scenes that share geometry (made with
-    ``scene.copy(...)`` or ``scene.at_frame(...)``) send it once. `numbers`, if given,
-    numbers the files instead of the scenes' positions. Returns the paths in frame order.
+    rendering. Scenes that share geometry (made with ``scene.copy(...)`` or
+    ``scene.at_frame(...)``) send it once. `numbers`, if given, numbers the files
+    instead of the scenes' positions. Returns the paths in frame order.
     """
     from distributed import as_completed
 
@@ -186,9 +186,9 @@ def render_many(
         return max(1, min(per_task, (total - i) // (4 * threads)))
 
     def submit(n: int) -> None:
-        """Sends the next `n` frames, `per_task` to a task (fewer where the geometry
-        changes), in one message: a round trip to the scheduler per task would cost the
-        client several ms of CPU a task."""
+        """Sends the next `n` frames, up to `task_size` to a task (fewer where the
+        geometry changes), in one message: a round trip to the scheduler per task would
+        cost the client several ms of CPU a task."""
         nonlocal out
         bases, jobs, files, limit = [], [], [], 0
         for i, scene in itertools.islice(frames, n):
