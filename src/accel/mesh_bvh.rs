@@ -47,6 +47,16 @@ impl MeshBvh {
         MeshBvh { tree, packs, leaf_size }
     }
 
+    /// Whether the mesh is small enough (a polygon, a quad of an NFF scene) for its
+    /// triangles to be tested without walking its tree: the object's box in the top
+    /// tree has been entered already, and the walk's own node visit cost more than the
+    /// test (a 512 x 512 sphereflake's ground: about 470 instructions a ray, mostly
+    /// the walk). The same hits: any triangle a ray meets lies in a leaf it enters.
+    #[inline(always)]
+    fn direct(&self) -> bool {
+        self.packs.len() <= DIRECT_PACKS
+    }
+
     pub(super) fn memory_bytes(&self) -> usize {
         self.tree.memory_bytes() + self.packs.capacity() * std::mem::size_of::<Tri4>()
     }
@@ -55,6 +65,10 @@ impl MeshBvh {
     pub(super) fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
         let r4 = Ray4::new(ray);
         let mut best: Option<Hit> = None;
+        if self.direct() {
+            self.nearest_in(0..self.packs.len(), &r4, t_min, t_max, &mut best);
+            return best;
+        }
         self.tree.traverse::<true, _>(
             ray,
             t_min,
@@ -142,6 +156,9 @@ impl MeshBvh {
     #[inline]
     pub(super) fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
         let r4 = Ray4::new(ray);
+        if self.direct() {
+            return self.leaf_blocks(0..self.packs.len(), &r4, t_min, t_max);
+        }
         let mut hit = false;
         self.tree.traverse::<false, _>(
             ray,
@@ -238,6 +255,9 @@ impl MeshBvh {
         self.packs[range].iter().any(|p| p.intersect(r4, t_min, t_max).0 != 0)
     }
 }
+
+/// Packs of four triangles a mesh may have for [`MeshBvh::direct`] to test them all.
+const DIRECT_PACKS: usize = 2;
 
 /// How many leaves apart (in [`MeshBvh::leaf_size`]) the origins of shadow rays may lie
 /// for them to go as one packet.
