@@ -4,7 +4,6 @@
 
 use super::World;
 #[cfg(target_arch = "x86_64")]
-use super::tri4::Ray4;
 #[cfg(target_arch = "x86_64")]
 use super::{Nearest, WideBvh};
 use crate::geometry::Hit;
@@ -35,10 +34,9 @@ impl World<'_> {
             && group.iter().all(|(r, _)| r.origin.is_finite() && r.dir.is_finite())
         {
             let rays = group.each_ref().map(|(r, _)| r);
-            let r4 = rays.map(Ray4::new);
             let mut nearest = [Nearest::default(); 8];
             let packed = tree.nearest_packet(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |k, range, t_cur| {
-                range.fold(t_cur, |t, at| self.leaf_nearest(at, &r4[k], rays[k], 0.0, t, &mut nearest[k]))
+                range.fold(t_cur, |t, at| self.leaf_nearest(at, rays[k], 0.0, t, &mut nearest[k]))
             });
             if packed {
                 for ((_, hit), nearest) in group.iter_mut().zip(nearest) {

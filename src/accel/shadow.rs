@@ -67,9 +67,8 @@ impl World<'_> {
             return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
         }
         let mut light = 1.0f64;
-        let r4 = Ray4::new(ray);
         self.traverse_objects::<false>(ray, 0.0, t_max, |at, _| {
-            if self.leaf_stops(at, &r4, ray, t_max, &mut light) {
+            if self.leaf_stops(at, ray, t_max, &mut light) {
                 return Visit::Stop;
             }
             // Every object along the whole segment counts, not just the nearest.
@@ -81,9 +80,11 @@ impl World<'_> {
     /// Multiplies into `light` the transmission of the objects of leaf entry `at` that
     /// lie across the segment; `true` once the light is gone.
     #[inline(always)]
-    fn leaf_stops(&self, at: usize, r4: &Ray4, ray: &Ray, t_max: f32, light: &mut f64) -> bool {
+    fn leaf_stops(&self, at: usize, ray: &Ray, t_max: f32, light: &mut f64) -> bool {
         match self.leaves[at] {
-            LeafItem::Spheres(ref pack) => self.pass_through(pack.intersect(r4, 0.0, t_max).0, &pack.ids, light),
+            LeafItem::Spheres(ref pack) => {
+                self.pass_through(pack.intersect(&Ray4::new(ray), 0.0, t_max).0, &pack.ids, light)
+            }
             LeafItem::Spheres8(ref pack) => self.pass_through(pack.intersect(ray, 0.0, t_max).0, &pack.ids, light),
             LeafItem::Other(i) => self.pass_through(self.blocks(i as usize, ray, t_max) as u32, &[i], light),
         }
