@@ -410,7 +410,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
             s.primary, s.shadow, s.reflection, s.refraction
         );
         println!("total       {} rays", s.total());
-        println!("load time   {:.3} s (parse and check the scene)", load_time.as_secs_f64());
+        println!("load time   {:.4} s (parse and check the scene)", load_time.as_secs_f64());
         if let Some(n) = &loaded.nff {
             let secs = load_time.as_secs_f64().max(1e-9);
             println!(
@@ -426,7 +426,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
             );
         }
         println!(
-            "build time  {:.3} s ({} acceleration structure)",
+            "build time  {:.4} s ({} acceleration structure)",
             out.build_time.as_secs_f64(),
             AccelKind::from(args.accel).name()
         );
