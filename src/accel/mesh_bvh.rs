@@ -53,7 +53,7 @@ impl MeshBvh {
     /// test (a 512 x 512 sphereflake's ground: about 470 instructions a ray, mostly
     /// the walk). The same hits: any triangle a ray meets lies in a leaf it enters.
     #[inline(always)]
-    fn direct(&self) -> bool {
+    pub(super) fn direct(&self) -> bool {
         self.packs.len() <= DIRECT_PACKS
     }
 

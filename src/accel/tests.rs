@@ -336,6 +336,21 @@ fn mesh_bvh_agrees_with_testing_every_triangle() {
     }
 }
 
+/// Meshes small enough to be tested without their tree ([`MeshBvh::direct`]): an
+/// octahedron (8 triangles, two packs), its top half, one triangle.
+#[test]
+fn small_meshes_tested_directly_agree_with_testing_every_triangle() {
+    let p = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z].map(|v| v * 1.5).to_vec();
+    let faces = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+    for n in [8, 4, 1] {
+        let mesh = Mesh::new(p.clone(), Vec::new(), Vec::new(), faces[..n].to_vec(), false).expect("a mesh");
+        for width in [4, 8] {
+            assert!(MeshBvh::build(&mesh, Some(width)).direct());
+            mesh_bvh_agrees(&mesh, width);
+        }
+    }
+}
+
 fn mesh_bvh_agrees(mesh: &Mesh, width: usize) {
     let tree = MeshBvh::build(mesh, Some(width));
     let mut r = Rng::new(5);
