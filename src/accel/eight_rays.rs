@@ -4,7 +4,6 @@
 
 use super::World;
 #[cfg(target_arch = "x86_64")]
-#[cfg(target_arch = "x86_64")]
 use super::{Nearest, WideBvh};
 use crate::geometry::Hit;
 use crate::math::Ray;

@@ -5,8 +5,8 @@
 //! Reading: whitespace-separated tokens, which may run over several lines (the spec's
 //! `c` takes 3 lines, SPD writes it on one), `#` to the end of a line is a comment. The
 //! file streams through one reused buffer of a chunk of lines, so size is limited by
-//! the scene's memory, not the file's. Every error names the file, line, column and the command at
-//! fault, as in `balls.nff:12:1: s: expected 4 numbers (x y z radius), found 3 ...`:
+//! the scene's memory, not the file's. Every error names the file, line, column and the
+//! command at fault, as in `balls.nff:12:1: s: expected 4 numbers (x y z radius), found 3 ...`:
 //! unknown commands, too few or too many numbers, values that are not (finite)
 //! numbers, vertex counts that do not match the vertices, impossible views, materials
 //! and cones. Nothing is rendered then.
@@ -260,10 +260,8 @@ impl<R: BufRead> Lexer<R> {
         if self.next_line_read() {
             return Ok(true);
         }
+        // No whole line left in the buffer: read until there is one.
         let end = loop {
-            if let Some(i) = memchr::memchr(b'\n', &self.buf[self.next..self.filled]) {
-                break self.next + i + 1;
-            }
             if self.filled - self.next > MAX_LINE {
                 return Err(SceneError::At {
                     file: name.to_owned(),
@@ -294,6 +292,9 @@ impl<R: BufRead> Lexer<R> {
             self.input.consume(n);
             self.filled += n;
             self.eof = n == 0;
+            if let Some(i) = memchr::memchr(b'\n', &self.buf[self.next..self.filled]) {
+                break self.next + i + 1;
+            }
         };
         self.enter_line(end);
         Ok(true)
