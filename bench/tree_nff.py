@@ -48,19 +48,17 @@ def main():
     level = int(sys.argv[1]) if len(sys.argv) > 1 else 7
     out = ["b 0.078 0.361 0.753", "v", "from 4.5 -5.5 2.6", "at 0 0 1.4", "up 0 0 1", "angle 45",
            "hither 0.01", "resolution 512 512", "l 6 -3 9", "l -4 -6 5",
-           "f 0.55 0.4 0.25 0.9 0 0 0 1"]
-    out_leaves = []
-    branch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 1.0, 0.12, level, 0.0, out_leaves)
-    cones = [line for line in out_leaves]
-    # Branches in brown, leaves (the spheres) in green and a little shiny.
-    body, leaves = [], []
-    i = 0
-    while i < len(cones):
-        if cones[i] == "c":
-            body.extend(cones[i:i + 3])
+           "f 0.55 0.4 0.25 0.9 0 0 0 1"]  # the branches' colour
+    parts = []
+    branch((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 1.0, 0.12, level, 0.0, parts)
+    # Branches (three lines each) in brown first, then the leaves in green.
+    body, leaves, i = [], [], 0
+    while i < len(parts):
+        if parts[i] == "c":
+            body.extend(parts[i:i + 3])
             i += 3
         else:
-            leaves.append(cones[i])
+            leaves.append(parts[i])
             i += 1
     out.extend(body)
     out.append("f 0.2 0.6 0.15 0.7 0.3 20 0 1")
