@@ -416,6 +416,12 @@ impl Builder {
             }
             let (mut acc, mut cnt) = (Box3::EMPTY, 0);
             for b in 1..BINS {
+                // Past an empty bin the plane splits as the one before it, at the same
+                // cost, which the strict comparison below would not take: skip it (most
+                // planes of a small node).
+                if counts[axis][b - 1] == 0 {
+                    continue;
+                }
                 acc = acc.union(boxes[axis][b - 1]);
                 cnt += counts[axis][b - 1];
                 if cnt == 0 || right_count[b] == 0 {
