@@ -29,6 +29,16 @@ pub fn hits<L: Lanes>(o: V3<L>, d: V3<L>, center: V3<L>, radius: L, t_min: L, t_
         return (real, L::splat(0.0));
     }
     let c = dot(oc, oc) - r2;
+    // From outside a sphere that lies behind it (c > 0, b > 0) both roots are negative,
+    // as computed below (q < 0, c / q < 0), so none is past a `t_min` of zero or more:
+    // where that holds for every lane that meets its sphere (the sphere a shadow or
+    // reflected ray leaves, and its neighbours behind), the root and the division are
+    // not needed. The same answer, sooner.
+    let zero = L::splat(0.0);
+    let behind = c.gt(zero) & b.gt(zero) & t_min.ge(zero);
+    if L::bits(real) & !L::bits(behind) == 0 {
+        return (zero.lt(zero), zero);
+    }
     let q = -(b + disc.sqrt().copysign(b));
     let (t0, t1) = (c / q, q);
     let ordered = t0.le(t1);
@@ -249,5 +259,39 @@ mod tests {
             }
         }
         assert!(hits > 1000, "only {hits} hits: the test is not exercising much");
+    }
+
+    /// The shortcut for spheres behind the ray's origin gives the full test's answer:
+    /// rays leave points on (and just off) spheres, towards random directions, and
+    /// `t_min = 0` (shortcut taken) must agree with a tiny negative `t_min` (which turns
+    /// it off, and accepts the same roots unless one is zero).
+    #[test]
+    fn spheres_behind_the_origin_are_missed_as_the_full_test_misses_them() {
+        let mut rng = Rng::new(0x5eed_5eed);
+        let (mut behind, mut hits) = (0, 0);
+        for _ in 0..20_000 {
+            let s = Sphere::new(rng.in_box(Vec3::splat(-3.0), Vec3::splat(3.0)), rng.range(0.05, 2.0));
+            let n = rng.direction();
+            let p = s.center + n * s.radius;
+            let origin = match rng.next_u64() % 3 {
+                0 => p,
+                1 => p + n * surface_offset(p),
+                _ => rng.in_box(Vec3::splat(-6.0), Vec3::splat(6.0)),
+            };
+            let r = Ray::new(origin, rng.direction());
+            let t_max = if rng.unit() < 0.5 { f32::INFINITY } else { rng.range(0.01, 8.0) };
+            let oc = (r.origin - s.center).to_array();
+            let b = oc[0] * r.dir.x + oc[1] * r.dir.y + oc[2] * r.dir.z;
+            let c = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - s.radius * s.radius;
+            behind += (c > 0.0 && b > 0.0) as u32;
+            let fast = s.intersect(&r, 0.0, t_max);
+            let full = s.intersect(&r, -1e-30, t_max);
+            if full.is_some_and(|h| h.t <= 0.0) {
+                continue; // a root at zero (an origin exactly on the sphere, c = 0)
+            }
+            assert_eq!(fast.map(|h| h.t.to_bits()), full.map(|h| h.t.to_bits()), "{r:?} against {s:?}");
+            hits += fast.is_some() as u32;
+        }
+        assert!(behind > 5_000 && hits > 2_000, "{behind} behind, {hits} hits: too few to tell");
     }
 }
