@@ -37,7 +37,7 @@ pub fn hits<L: Lanes>(o: V3<L>, d: V3<L>, center: V3<L>, radius: L, t_min: L, t_
     let zero = L::splat(0.0);
     let behind = c.gt(zero) & b.gt(zero) & t_min.ge(zero);
     if L::bits(real) & !L::bits(behind) == 0 {
-        return (zero.lt(zero), zero);
+        return (zero.lt(zero), zero); // no lane hits
     }
     let q = -(b + disc.sqrt().copysign(b));
     let (t0, t1) = (c / q, q);
