@@ -25,6 +25,7 @@ mod mesh_bvh;
 mod packet8;
 mod shadow;
 pub use lanes::Best8;
+pub use shadow::LastBlocker;
 mod sphere4;
 mod sphere8;
 mod tri4;

@@ -5,23 +5,72 @@ use super::tri4::Ray4;
 use super::{LeafItem, Visit, World};
 use crate::math::Ray;
 
+/// The leaf entry that blocked the last shadow ray of a batch, for
+/// [`World::transmittance_hinted`]; `default()` names none.
+#[derive(Clone, Copy, Debug)]
+pub struct LastBlocker(pub(super) u32);
+
+impl Default for LastBlocker {
+    fn default() -> Self {
+        LastBlocker(u32::MAX)
+    }
+}
+
 impl World<'_> {
     /// [`World::transmittance`] for each shadow ray and length of `rays`, into `out` (as
     /// long): in a world of one mesh, eight at a time, as one packet where
     /// [`super::MeshBvh::occluded_eight`] takes them ([`super::wide8::Bvh8::any_packet`]),
     /// the others three walks at a time, interleaved ([`super::wide8::Bvh8::any_hits`]);
-    /// elsewhere one ray after another. (In a world of objects, neither packets, nor
-    /// interleaved walks, nor testing first the object that blocked the last ray paid:
-    /// the sphereflake took as long, docs/performance.md.)
-    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
+    /// elsewhere one ray after another, each trying first what blocked the last
+    /// ([`World::transmittance_hinted`]). `blocker` carries that from call to call: give
+    /// each batch of rays towards one light the same one. (In a world of objects, neither
+    /// packets nor interleaved walks paid: the sphereflake took as long,
+    /// docs/performance.md.)
+    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32], blocker: &mut LastBlocker) {
         match self.single_mesh() {
             Some(_) => self.mesh_transmittance_each(rays, out),
             _ => {
                 for ((ray, t), light) in rays.iter().zip(out) {
-                    *light = self.transmittance(ray, *t);
+                    *light = self.transmittance_hinted(ray, *t, blocker);
                 }
             }
         }
+    }
+
+    /// Whether [`World::transmittance_each`] takes shadow rays in packets (a world of
+    /// one mesh), so that callers should gather them first.
+    pub fn packs_shadow_rays(&self) -> bool {
+        self.single_mesh().is_some()
+    }
+
+    /// [`World::transmittance`], trying first the leaf entry that blocked the last shadow
+    /// ray given the same `blocker`, and keeping there the entry that blocks this one.
+    /// Neighbouring shadow rays to one light tend to be blocked by the same objects (a
+    /// pack of spheres: the cached object's neighbours come with it): one pack test in
+    /// place of a walk from the root. The answer is the same either way, since it is 0
+    /// as soon as one opaque object lies across the segment.
+    #[inline]
+    pub fn transmittance_hinted(&self, ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
+        if self.flat {
+            return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
+        }
+        // A ray of NaNs or from an overflowed point is not tested: the walk meets nothing.
+        if blocker.0 != u32::MAX && ray.origin.is_finite() && ray.dir.is_finite() {
+            let mut light = 1.0f64;
+            if self.leaf_stops(blocker.0 as usize, ray, t_max, &mut light) {
+                return 0.0;
+            }
+        }
+        let mut light = 1.0f64;
+        self.traverse_objects::<false>(ray, 0.0, t_max, |at, _| {
+            if self.leaf_stops(at, ray, t_max, &mut light) {
+                blocker.0 = at as u32;
+                return Visit::Stop;
+            }
+            // Every object along the whole segment counts, not just the nearest.
+            Visit::Continue(t_max)
+        });
+        light as f32
     }
 
     fn mesh_transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
@@ -63,24 +112,13 @@ impl World<'_> {
     /// f64 so that the order objects are met in does not change the f32 result.
     #[inline]
     pub fn transmittance(&self, ray: &Ray, t_max: f32) -> f32 {
-        if self.flat {
-            return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
-        }
-        let mut light = 1.0f64;
-        self.traverse_objects::<false>(ray, 0.0, t_max, |at, _| {
-            if self.leaf_stops(at, ray, t_max, &mut light) {
-                return Visit::Stop;
-            }
-            // Every object along the whole segment counts, not just the nearest.
-            Visit::Continue(t_max)
-        });
-        light as f32
+        self.transmittance_hinted(ray, t_max, &mut LastBlocker::default())
     }
 
     /// Multiplies into `light` the transmission of the objects of leaf entry `at` that
     /// lie across the segment; `true` once the light is gone.
     #[inline(always)]
-    fn leaf_stops(&self, at: usize, ray: &Ray, t_max: f32, light: &mut f64) -> bool {
+    pub(super) fn leaf_stops(&self, at: usize, ray: &Ray, t_max: f32, light: &mut f64) -> bool {
         match self.leaves[at] {
             LeafItem::Spheres(ref pack) => {
                 self.pass_through(pack.intersect(&Ray4::new(ray), 0.0, t_max).0, &pack.ids, light)

@@ -379,7 +379,7 @@ fn rays_in_batches_match_one_by_one() {
             (0..3001).map(|_| (Ray::new(v(&mut r, 1.5), unit(&mut r)), 6.0 * r.next_f32())).collect();
         let want: Vec<f32> = rays.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
         let mut got = vec![0.0; rays.len()];
-        world.transmittance_each(&rays, &mut got);
+        world.transmittance_each(&rays, &mut got, &mut LastBlocker::default());
         assert_eq!(got, want, "transparency {transparency}, width {width}");
         // And closest hits likewise, within the same lengths and without bound.
         for t_max in [2.5, f32::INFINITY] {
@@ -412,10 +412,55 @@ fn rays_in_batches_match_one_by_one() {
             .collect();
         let want: Vec<f32> = shadow.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
         let mut got = vec![0.0; shadow.len()];
-        world.transmittance_each(&shadow, &mut got);
+        world.transmittance_each(&shadow, &mut got, &mut LastBlocker::default());
         assert_eq!(got, want, "shadow rays, width {width}");
         let blocked = want.iter().filter(|&&l| l < 1.0).count();
         assert!(blocked > 100 && blocked + 100 < want.len(), "{blocked} of {} blocked", want.len());
+    }
+}
+
+/// Shadow rays that try first the leaf entry that blocked the ray before (as the wave
+/// carries a [`LastBlocker`] from ray to ray), or an entry picked at random, get the
+/// answers of testing every object: opaque and glass objects of every kind, spheres in
+/// packs, 4- and 8-wide trees.
+#[test]
+fn a_shadow_rays_last_blocker_changes_no_answer() {
+    for (seed, width) in [(3u64, 4), (4, 8)] {
+        let mut scene = random_scene(seed, 150);
+        let mut r = Rng::new(500 + seed);
+        let (opaque, glass) = (crate::scene::MaterialId(0), crate::scene::MaterialId(1));
+        for i in 0..400 {
+            let s = Sphere::new(v(&mut r, 12.0), 0.2 + r.next_f32());
+            scene.add(s, if i % 4 == 0 { glass } else { opaque });
+        }
+        let (bvh, brute) =
+            (World::with_width(&scene, AccelKind::Bvh, Some(width)), World::new(&scene, AccelKind::None));
+        let entries = bvh.leaves.len() as u32;
+        let (mut last, mut settled, mut blocked) = (LastBlocker::default(), 0, 0);
+        for i in 0..40_000 {
+            // Rays from points in a small region towards one light, so that what blocked
+            // one ray often blocks the next; a new region and light every 64 rays.
+            if i % 64 == 0 {
+                last = LastBlocker::default();
+            }
+            let (region, light) = {
+                let mut q = Rng::new(i / 64);
+                (v(&mut q, 24.0), v(&mut q, 40.0))
+            };
+            let from = region + v(&mut r, 2.0);
+            let ray = Ray::new(from, light - from);
+            let t_max = (light - from).length();
+            let mut alone = 1.0f64;
+            settled += (last.0 != u32::MAX && bvh.leaf_stops(last.0 as usize, &ray, t_max, &mut alone)) as u32;
+            let want = brute.transmittance(&ray, t_max);
+            assert_eq!(bvh.transmittance_hinted(&ray, t_max, &mut last), want, "seed {seed}, ray {i}");
+            blocked += (want == 0.0) as u32;
+            if i % 5 == 0 {
+                last = LastBlocker(r.below(entries)); // any entry, glass or opaque, hit or not
+            }
+        }
+        // The hint answered for many rays, and many were blocked some other way.
+        assert!(settled > 2000 && settled + 2000 < blocked, "seed {seed}: {settled} settled, {blocked} blocked");
     }
 }
 

@@ -16,7 +16,7 @@
 //! rays, so a pixel's colour does not depend on which other pixels share its wave.
 
 use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, Towards8, lane_of, towards_light_lanes};
-use crate::accel::World;
+use crate::accel::{LastBlocker, World};
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
 
@@ -150,6 +150,8 @@ impl Wave {
             // A light without a position (directional) is tested against everything.
             let culled = culls && light.position().is_some_and(|p| world.may_shadow(boxes, p, blockers));
             let blockers = culled.then_some(&blockers[..]);
+            // What blocked the last of this light's shadow rays, to try first.
+            let mut last = LastBlocker::default();
             for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
                 let seen = towards_light_lanes(light, from, normal);
                 let mut live = 0u32;
@@ -160,7 +162,7 @@ impl Wave {
                     }
                     live |= ((*falloff > 0.0) as u32) << lane;
                 }
-                let visible = visible_lanes(world, blockers, from, &seen, live);
+                let visible = visible_lanes(world, blockers, from, &seen, live, &mut last);
                 for (lane, &k) in nodes.iter().enumerate() {
                     if live >> lane & 1 == 0 {
                         continue; // the light is behind the surface
@@ -279,9 +281,20 @@ fn visible_lanes(
     from: &[[f32; 8]; 3],
     seen: &Towards8,
     live: u32,
+    last: &mut LastBlocker,
 ) -> [f32; 8] {
     match blockers {
         Some(ids) => world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
+        // One walk a lane, each as it is taken: with the last blocker tried first, this
+        // beat gathering the rays first (sphereflake, docs/performance.md).
+        None if !world.packs_shadow_rays() => {
+            let mut visible = [0.0; 8];
+            for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
+                visible[lane] = world.transmittance_hinted(&shadow, seen.distance[lane], last);
+            }
+            visible
+        }
         None => {
             // The live lanes' rays, side by side, then their answers back in lane.
             let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
@@ -290,7 +303,7 @@ fn visible_lanes(
                 (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
             }
             let mut light = [0.0; 8];
-            world.transmittance_each(&rays[..n], &mut light[..n]);
+            world.transmittance_each(&rays[..n], &mut light[..n], last);
             let mut visible = [0.0; 8];
             for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
                 visible[lane] = light;
