@@ -17,7 +17,7 @@
 //! by one. So the primary and shadow rates are those of packets of eight neighbouring
 //! rays, each ray finding what its own walk finds.
 
-use crate::accel::{AccelKind, LastBlocker, World};
+use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraRig};
 use crate::geometry::{Mesh, Sphere};
 use crate::light::PointLight;
@@ -412,7 +412,7 @@ pub fn run(case: &BenchCase, accel: AccelKind, runs: usize, threads: usize) -> B
         let shadow_s = timed_rays(runs, || {
             let (lit, cpu) = par_chunks_timed(&shadow, |c| {
                 let mut light = vec![0.0; c.len()];
-                world.transmittance_each(c, &mut light, &mut LastBlocker::default());
+                world.transmittance_each(c, &mut light);
                 light.iter().filter(|&&l| l > 0.0).count()
             });
             std::hint::black_box(lit);

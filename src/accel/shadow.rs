@@ -5,8 +5,8 @@ use super::tri4::Ray4;
 use super::{LeafItem, Visit, World};
 use crate::math::Ray;
 
-/// The leaf entry that blocked the last shadow ray of a batch, for
-/// [`World::transmittance_hinted`]; `default()` names none.
+/// The leaf entry that blocked the last of a run of shadow rays (a light's, from one
+/// level's hits), for [`World::transmittance_hinted`]; `default()` names none.
 #[derive(Clone, Copy, Debug)]
 pub struct LastBlocker(pub(super) u32);
 
@@ -21,17 +21,15 @@ impl World<'_> {
     /// long): in a world of one mesh, eight at a time, as one packet where
     /// [`super::MeshBvh::occluded_eight`] takes them ([`super::wide8::Bvh8::any_packet`]),
     /// the others three walks at a time, interleaved ([`super::wide8::Bvh8::any_hits`]);
-    /// elsewhere one ray after another, each trying first what blocked the last
-    /// ([`World::transmittance_hinted`]). `blocker` carries that from call to call: give
-    /// each batch of rays towards one light the same one. (In a world of objects, neither
-    /// packets nor interleaved walks paid: the sphereflake took as long,
-    /// docs/performance.md.)
-    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32], blocker: &mut LastBlocker) {
+    /// elsewhere one ray after another. (In a world of objects, neither packets nor
+    /// interleaved walks paid: the sphereflake took as long, docs/performance.md; there
+    /// the wave walks each ray as it comes, with [`World::transmittance_hinted`].)
+    pub fn transmittance_each(&self, rays: &[(Ray, f32)], out: &mut [f32]) {
         match self.single_mesh() {
             Some(_) => self.mesh_transmittance_each(rays, out),
             _ => {
                 for ((ray, t), light) in rays.iter().zip(out) {
-                    *light = self.transmittance_hinted(ray, *t, blocker);
+                    *light = self.transmittance(ray, *t);
                 }
             }
         }

@@ -379,7 +379,7 @@ fn rays_in_batches_match_one_by_one() {
             (0..3001).map(|_| (Ray::new(v(&mut r, 1.5), unit(&mut r)), 6.0 * r.next_f32())).collect();
         let want: Vec<f32> = rays.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
         let mut got = vec![0.0; rays.len()];
-        world.transmittance_each(&rays, &mut got, &mut LastBlocker::default());
+        world.transmittance_each(&rays, &mut got);
         assert_eq!(got, want, "transparency {transparency}, width {width}");
         // And closest hits likewise, within the same lengths and without bound.
         for t_max in [2.5, f32::INFINITY] {
@@ -412,7 +412,7 @@ fn rays_in_batches_match_one_by_one() {
             .collect();
         let want: Vec<f32> = shadow.iter().map(|(ray, t)| world.transmittance(ray, *t)).collect();
         let mut got = vec![0.0; shadow.len()];
-        world.transmittance_each(&shadow, &mut got, &mut LastBlocker::default());
+        world.transmittance_each(&shadow, &mut got);
         assert_eq!(got, want, "shadow rays, width {width}");
         let blocked = want.iter().filter(|&&l| l < 1.0).count();
         assert!(blocked > 100 && blocked + 100 < want.len(), "{blocked} of {} blocked", want.len());

@@ -273,7 +273,8 @@ fn find_hits(world: &World, rays: &mut [Found], seen: &mut Vec<u32>) {
 
 /// What the shadow rays from eight points `from` towards a light (`seen`) let
 /// through, in the lanes `live` (0 in the others): tested together against objects
-/// `blockers` only where given ([`World::may_shadow`]), else against the whole world.
+/// `blockers` only where given ([`World::may_shadow`]), else against the whole world,
+/// each trying first what blocked the light's last ray (`last`, carried on).
 #[inline(always)]
 fn visible_lanes(
     world: &World,
@@ -303,7 +304,7 @@ fn visible_lanes(
                 (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
             }
             let mut light = [0.0; 8];
-            world.transmittance_each(&rays[..n], &mut light[..n], last);
+            world.transmittance_each(&rays[..n], &mut light[..n]);
             let mut visible = [0.0; 8];
             for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
                 visible[lane] = light;
