@@ -117,8 +117,13 @@ fn every_command_is_parsed_and_rendered() {
     let (stdout, stderr) = ok(&["render", scene.to_str().unwrap(), "-o", png.to_str().unwrap(), "--stats"]);
     assert!(!stderr.contains("warning"), "no warnings expected: {stderr}");
     assert!(stdout.contains("nff         37 lines, 0.0 MB, "), "{stdout}");
-    // The concave hexagon has three vertices in a line: 3 triangles, not 4.
-    assert!(stdout.contains("2 spheres, 3 cones and cylinders, 2 polygons and 1 patches as 6 triangles"), "{stdout}");
+    // The concave hexagon has three vertices in a line: 3 triangles, not 4; the floor,
+    // a rectangle, is one parallelogram.
+    assert!(
+        stdout
+            .contains("2 spheres, 3 cones and cylinders, 2 polygons and 1 patches as 4 triangles and 1 parallelograms"),
+        "{stdout}"
+    );
     let img = image::open(&png).unwrap().to_rgb8();
     assert_eq!(img.dimensions(), (48, 40), "the file's resolution");
     // The background is the file's `b`; the floor in front is not.

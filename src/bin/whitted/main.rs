@@ -414,7 +414,7 @@ fn render(args: RenderArgs) -> Result<(), String> {
         if let Some(n) = &loaded.nff {
             let secs = load_time.as_secs_f64().max(1e-9);
             println!(
-                "nff         {} lines, {:.1} MB, {:.0} MB/s: {} spheres, {} cones and cylinders, {} polygons and {} patches as {} triangles",
+                "nff         {} lines, {:.1} MB, {:.0} MB/s: {} spheres, {} cones and cylinders, {} polygons and {} patches as {} triangles and {} parallelograms",
                 n.lines,
                 n.bytes as f64 / 1e6,
                 n.bytes as f64 / 1e6 / secs,
@@ -422,7 +422,8 @@ fn render(args: RenderArgs) -> Result<(), String> {
                 n.cones,
                 n.polygons,
                 n.patches,
-                n.triangles
+                n.triangles,
+                n.quads
             );
         }
         println!(

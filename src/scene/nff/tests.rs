@@ -87,7 +87,7 @@ fn materials_map_onto_the_formats_weights() {
 #[test]
 fn polygons_of_a_material_share_one_mesh_and_skip_zero_area() {
     let text = format!(
-        "{VIEW}l 0 0 9\nf 1 1 1 1 0 0 0 0\np 4\n0 0 0 1 0 0 1 1 0 0 1 0\np 3 0 0 0 1 1 1 2 2 2\n\
+        "{VIEW}l 0 0 9\nf 1 1 1 1 0 0 0 0\np 4\n0 0 0 2 0 0 1 1 0 0 1 0\np 3 0 0 0 1 1 1 2 2 2\n\
          f 1 1 1 1 0 0 0 0\np 6 0 0 1 2 0 1 2 1 1 1 1 1 1 2 1 0 2 1\n"
     );
     let nff = read(&text).unwrap();
@@ -98,6 +98,28 @@ fn polygons_of_a_material_share_one_mesh_and_skip_zero_area() {
     assert!(!m.is_smooth());
     assert_eq!(nff.warnings.len(), 1, "{:?}", nff.warnings);
     assert!(nff.warnings[0].contains("1 zero-area polygon skipped (the first on line 12)"), "{}", nff.warnings[0]);
+}
+
+#[test]
+fn a_flat_parallelogram_is_read_as_a_quad_and_other_polygons_as_triangles() {
+    // A parallelogram (the SPD floors), a square given as a pp patch, a kite.
+    let text = format!(
+        "{VIEW}f 1 1 1 1 0 0 0 0\np 4 1 0 0 3 0 0 4 2 0 2 2 0\n\
+         pp 4 0 0 0 0 0 1 1 0 0 0 0 1 1 1 0 0 0 1 0 1 0 0 0 1\np 4 0 0 0 1 -1 0 2 0 0 1 3 0\n"
+    );
+    let nff = read(&text).unwrap();
+    assert_eq!(nff.scene.objects.len(), 3);
+    let Shape::Quad(q) = &nff.scene.objects[0].shape else { panic!("{:?}", nff.scene.objects[0].shape) };
+    assert_eq!(
+        (q.corner, q.edge_u, q.edge_v),
+        (Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(1.0, 2.0, 0.0))
+    );
+    assert_eq!(q.normal(), Vec3::Z);
+    let Shape::Mesh(smooth) = &nff.scene.objects[1].shape else { unreachable!() };
+    let Shape::Mesh(kite) = &nff.scene.objects[2].shape else { unreachable!() };
+    assert!(smooth.is_smooth() && !kite.is_smooth());
+    assert_eq!((smooth.triangle_count(), kite.triangle_count()), (2, 2));
+    assert_eq!((nff.counts.polygons, nff.counts.quads, nff.counts.triangles), (2, 1, 4));
 }
 
 #[test]
