@@ -76,7 +76,7 @@ pub struct Counts {
     pub patches: usize,
     /// Triangles made from `p` and `pp`.
     pub triangles: usize,
-    /// Polygons read as one parallelogram rather than triangles.
+    /// Polygons read as one parallelogram rather than triangles ([`FEW_QUADS`]).
     pub quads: usize,
 }
 
@@ -146,7 +146,20 @@ struct MeshBuilder {
     positions: Vec<Vec3>,
     normals: Vec<Vec3>,
     triangles: Vec<[u32; 3]>,
+    /// Polygons added.
+    polygons: usize,
+    /// Each polygon as a parallelogram, while every one so far is one and there are at
+    /// most [`FEW_QUADS`].
+    quads: Vec<Quad>,
 }
+
+/// A material's flat polygons, when they are this many parallelograms or fewer (a
+/// floor, a wall, a box), become quads rather than a mesh: a mesh of a few triangles
+/// costs a walk of its own tree and a normal rebuilt at each hit, a fifth of the
+/// sphereflake's camera rays for its floor. More stay a mesh, whose tree and packed
+/// triangle tests pay there, and so do mixed ones (quads beside a mesh over the same
+/// ground would make rays walk both).
+const FEW_QUADS: usize = 4;
 
 /// Problems worth one warning each however often they occur: how many, and the first line.
 #[derive(Default)]
@@ -178,8 +191,6 @@ struct Parser<'a, R> {
     spheres: Vec<Object>,
     cylinders: Vec<Object>,
     cones: Vec<Object>,
-    /// Flat four-corner polygons that are parallelograms (the SPD scenes' floors).
-    quads: Vec<Object>,
     meshes: Vec<(MaterialId, bool, MeshBuilder)>,
     mesh_ids: HashMap<(MaterialId, bool), usize>,
     /// Reused for each polygon.
@@ -211,7 +222,6 @@ impl<'a, R: BufRead> Parser<'a, R> {
             spheres: Vec::new(),
             cylinders: Vec::new(),
             cones: Vec::new(),
-            quads: Vec::new(),
             meshes: Vec::new(),
             mesh_ids: HashMap::new(),
             points: Vec::new(),
@@ -546,11 +556,6 @@ impl<'a, R: BufRead> Parser<'a, R> {
             self.counts.polygons += 1;
         }
         let material = self.material(e);
-        if let Some(quad) = parallelogram(&self.points).filter(|_| !smooth) {
-            self.quads.push(Object { shape: quad.into(), material });
-            self.counts.quads += 1;
-            return Ok(());
-        }
         let index = *self.mesh_ids.entry((material, smooth)).or_insert_with(|| {
             self.meshes.push((material, smooth, MeshBuilder::default()));
             self.meshes.len() - 1
@@ -592,6 +597,10 @@ impl<'a, R: BufRead> Parser<'a, R> {
             if covered < outline * (1.0 - 1e-4) {
                 self.thin.add(e.line);
             }
+        }
+        mesh.polygons += 1;
+        if !smooth && mesh.polygons <= FEW_QUADS && mesh.quads.len() + 1 == mesh.polygons {
+            mesh.quads.extend(parallelogram(&self.points));
         }
         mesh.positions.extend_from_slice(&self.points);
         mesh.normals.extend_from_slice(&self.normals);
@@ -639,9 +648,14 @@ impl<'a, R: BufRead> Parser<'a, R> {
         objects.append(&mut self.spheres);
         objects.append(&mut self.cylinders);
         objects.append(&mut self.cones);
-        objects.append(&mut self.quads);
         for (material, smooth, m) in self.meshes {
             if m.triangles.is_empty() {
+                continue;
+            }
+            if m.quads.len() == m.polygons {
+                self.counts.quads += m.quads.len();
+                self.counts.triangles -= m.triangles.len();
+                objects.extend(m.quads.into_iter().map(|q| Object { shape: q.into(), material }));
                 continue;
             }
             let normals = if smooth { m.normals } else { Vec::new() };
@@ -655,9 +669,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
 }
 
 /// Four corners `a b c d` that make a parallelogram (`a + c = b + d` to a millionth of
-/// its size) with area, as a [`Quad`]: one exact test and a stored normal in place of
-/// two triangles in a mesh of their own, whose walk and surface cost a fifth of the
-/// sphereflake's camera rays for its floor.
+/// its size) with area, as a [`Quad`] (see [`FEW_QUADS`]).
 fn parallelogram(points: &[Vec3]) -> Option<Quad> {
     let &[a, b, c, d] = points else { return None };
     let (u, v) = (b - a, d - a);

@@ -101,25 +101,40 @@ fn polygons_of_a_material_share_one_mesh_and_skip_zero_area() {
 }
 
 #[test]
-fn a_flat_parallelogram_is_read_as_a_quad_and_other_polygons_as_triangles() {
-    // A parallelogram (the SPD floors), a square given as a pp patch, a kite.
+fn a_materials_few_flat_parallelograms_are_read_as_quads_and_other_polygons_as_triangles() {
+    let square = |x: f32| format!("p 4 {x} 0 0 {} 0 0 {} 1 0 {x} 1 0\n", x + 1.0, x + 1.0);
     let text = format!(
+        // A parallelogram alone in its material (the SPD floors); a square given as a
+        // pp patch; a kite; a parallelogram sharing its material with a kite; five
+        // squares of one material.
         "{VIEW}f 1 1 1 1 0 0 0 0\np 4 1 0 0 3 0 0 4 2 0 2 2 0\n\
-         pp 4 0 0 0 0 0 1 1 0 0 0 0 1 1 1 0 0 0 1 0 1 0 0 0 1\np 4 0 0 0 1 -1 0 2 0 0 1 3 0\n"
+         pp 4 0 0 0 0 0 1 1 0 0 0 0 1 1 1 0 0 0 1 0 1 0 0 0 1\n\
+         f 1 0 1 1 0 0 0 0\np 4 0 0 0 1 -1 0 2 0 0 1 3 0\n\
+         f 1 1 0 1 0 0 0 0\n{}p 4 0 0 0 1 -1 0 2 0 0 1 3 0\n\
+         f 0 1 1 1 0 0 0 0\n{}",
+        square(0.0),
+        (0..5).map(|k| square(k as f32)).collect::<String>()
     );
     let nff = read(&text).unwrap();
-    assert_eq!(nff.scene.objects.len(), 3);
-    let Shape::Quad(q) = &nff.scene.objects[0].shape else { panic!("{:?}", nff.scene.objects[0].shape) };
+    let shapes: Vec<&Shape> = nff.scene.objects.iter().map(|o| &o.shape).collect();
+    assert_eq!(shapes.len(), 5, "{shapes:?}");
+    let Shape::Quad(q) = shapes[0] else { panic!("{:?}", shapes[0]) };
     assert_eq!(
         (q.corner, q.edge_u, q.edge_v),
         (Vec3::new(1.0, 0.0, 0.0), Vec3::new(2.0, 0.0, 0.0), Vec3::new(1.0, 2.0, 0.0))
     );
     assert_eq!(q.normal(), Vec3::Z);
-    let Shape::Mesh(smooth) = &nff.scene.objects[1].shape else { unreachable!() };
-    let Shape::Mesh(kite) = &nff.scene.objects[2].shape else { unreachable!() };
-    assert!(smooth.is_smooth() && !kite.is_smooth());
-    assert_eq!((smooth.triangle_count(), kite.triangle_count()), (2, 2));
-    assert_eq!((nff.counts.polygons, nff.counts.quads, nff.counts.triangles), (2, 1, 4));
+    let triangles = |s: &Shape| match s {
+        Shape::Mesh(m) => (m.is_smooth(), m.triangle_count()),
+        other => panic!("{other:?}"),
+    };
+    // Meshes in the order of their materials: the patch, the kite, square and kite,
+    // the five squares.
+    assert_eq!(
+        shapes[1..].iter().map(|s| triangles(s)).collect::<Vec<_>>(),
+        [(true, 2), (false, 2), (false, 4), (false, 10)]
+    );
+    assert_eq!((nff.counts.polygons, nff.counts.quads, nff.counts.triangles), (9, 1, 18));
 }
 
 #[test]
