@@ -345,6 +345,12 @@ impl Builder {
         if n <= 1 || depth + 1 >= MAX_DEPTH {
             return None;
         }
+        // A split costs at least a node visit: where a leaf costs no more, it stays a
+        // leaf whatever the bins say, so they need not be filled (most calls of a packed
+        // build are such small ranges).
+        if n <= MAX_LEAF && self.leaf_cost(n) <= self.traversal_cost {
+            return None;
+        }
         let split = self.best_split(idx, r);
         let mid = match &split {
             Some(s) if s.cost < self.leaf_cost(n) || n > MAX_LEAF => {
@@ -513,6 +519,33 @@ pub(crate) mod tests {
         let bvh = Bvh::build(&b);
         check(&bvh, &b);
         assert!(bvh.nodes.iter().all(|n| n.count as usize <= MAX_LEAF));
+    }
+
+    /// `partition` makes a range of at most `MAX_LEAF` a leaf without binning it when a
+    /// leaf costs no more than a node visit: no split of such a range may cost less.
+    #[test]
+    fn small_ranges_left_unbinned_would_not_have_been_split() {
+        let mut checked = 0;
+        for pack in [1, 4, 8] {
+            for seed in 0..300u64 {
+                let b = boxes(2 + seed as usize % (MAX_LEAF - 1), seed * 7 + pack as u64);
+                let builder = Builder::new(&b, pack);
+                let idx: Vec<u32> = (0..b.len() as u32).collect();
+                if builder.leaf_cost(idx.len()) > builder.traversal_cost {
+                    continue;
+                }
+                checked += 1;
+                if let Some(s) = builder.best_split(&idx, &builder.range(&idx)) {
+                    assert!(
+                        !(s.cost < builder.leaf_cost(idx.len())),
+                        "pack {pack}, {} boxes: split cost {}",
+                        b.len(),
+                        s.cost
+                    );
+                }
+            }
+        }
+        assert_eq!(checked, 600, "the packed builds' small ranges");
     }
 
     #[test]
