@@ -4,9 +4,15 @@
 
 use super::World;
 #[cfg(target_arch = "x86_64")]
-use super::{Nearest, WideBvh};
+use super::{Inline, LeafItem, NONE, Nearest, WideBvh};
 use crate::geometry::Hit;
+#[cfg(target_arch = "x86_64")]
+use crate::geometry::{Quad, part};
 use crate::math::Ray;
+#[cfg(target_arch = "x86_64")]
+use crate::math::Vec2;
+#[cfg(target_arch = "x86_64")]
+use crate::math::lanes::{F8, Lanes};
 
 impl World<'_> {
     /// [`World::closest`] (from 0, without bound) for each ray of `found`, its answer
@@ -34,9 +40,25 @@ impl World<'_> {
         {
             let rays = group.each_ref().map(|(r, _)| r);
             let mut nearest = [Nearest::default(); 8];
-            let packed = tree.nearest_packet(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |k, range, t_cur| {
-                range.fold(t_cur, |t, at| self.leaf_nearest(at, rays[k], 0.0, t, &mut nearest[k]))
-            });
+            let packed =
+                tree.nearest_packet_leaves(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |mask, range, t| {
+                    for at in range {
+                        match &self.leaves[at] {
+                            // A quad (an SPD floor) met by several rays: tested once for them.
+                            LeafItem::Inline(Inline::Quad(q), i) if mask & (mask - 1) != 0 => {
+                                quad_lanes(q, *i, rays, mask, t, &mut nearest)
+                            }
+                            _ => {
+                                let mut m = mask;
+                                while m != 0 {
+                                    let k = m.trailing_zeros() as usize;
+                                    m &= m - 1;
+                                    t[k] = self.leaf_nearest(at, rays[k], 0.0, t[k], &mut nearest[k]);
+                                }
+                            }
+                        }
+                    }
+                });
             if packed {
                 for ((_, hit), nearest) in group.iter_mut().zip(nearest) {
                     *hit = nearest.get();
@@ -71,6 +93,37 @@ impl World<'_> {
         }
         for (ray, out) in groups.remainder().iter().zip(hits.into_remainder()) {
             *out = mesh.closest(ray, t_min, t_max).map(|h| (h, 0));
+        }
+    }
+}
+
+/// Calls of [`quad_lanes`], for a test to see that it ran.
+#[cfg(all(test, target_arch = "x86_64"))]
+pub(super) static QUAD_PACKETS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
+/// [`World::leaf_nearest`] of a quad entry for the rays `mask` of a packet at once: the
+/// one quad test ([`Quad::hits`]) on eight lanes, so each ray gets the answer and bound
+/// its own test would give.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn quad_lanes(q: &Quad, i: u32, rays: [&Ray; 8], mask: u32, t: &mut [f32; 8], nearest: &mut [Nearest; 8]) {
+    #[cfg(test)]
+    QUAD_PACKETS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    // Inclusive once something is hit, as in `leaf_nearest`: ties go to the lower index.
+    let limit = F8(std::array::from_fn(|k| if nearest[k].index != NONE { t[k].next_up() } else { t[k] }));
+    let lanes = |f: fn(&Ray) -> [f32; 3]| {
+        let v = rays.map(f);
+        std::array::from_fn(|axis| F8(std::array::from_fn(|k| v[k][axis])))
+    };
+    let (o, d) = (lanes(|r| r.origin.to_array()), lanes(|r| r.dir.to_array()));
+    let (hit, at, a, b) = q.hits::<F8>(o, d, F8::splat(0.0), limit);
+    let mut m = F8::bits(hit) & mask;
+    while m != 0 {
+        let k = m.trailing_zeros() as usize;
+        m &= m - 1;
+        let h = Hit { prim: 0, t: at.0[k], uv: Vec2::new(a.0[k], b.0[k]), part: part::SIDE };
+        if nearest[k].offer(h, i) {
+            t[k] = h.t;
         }
     }
 }

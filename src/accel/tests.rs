@@ -292,8 +292,19 @@ fn sphere_packs_agree_with_testing_every_object() {
             scene.add(s, opaque); // the same sphere again: the lower index must win
         }
     }
+    // A floor under it all, twice: packets of camera rays test its entry together.
+    let floor = Quad::new(Vec3::new(-100.0, -21.0, 100.0), Vec3::X * 200.0, Vec3::NEG_Z * 200.0);
+    scene.add(floor, glass);
+    scene.add(floor, opaque);
+    #[cfg(target_arch = "x86_64")]
+    let packets_before = super::eight_rays::QUAD_PACKETS.load(std::sync::atomic::Ordering::Relaxed);
     for width in [4, 8] {
         sphere_packs_agree(&scene, width, &mut r);
+    }
+    #[cfg(target_arch = "x86_64")]
+    if is_x86_feature_detected!("avx2") {
+        let after = super::eight_rays::QUAD_PACKETS.load(std::sync::atomic::Ordering::Relaxed);
+        assert!(after > packets_before, "no packet tested the floor's entry at once");
     }
 }
 

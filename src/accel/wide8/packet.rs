@@ -20,7 +20,6 @@ impl Bvh8 {
     /// does not. Where neighbouring camera rays share most of their nodes, or all leave
     /// the tree after a node or two, one node visit serves them all.
     #[inline]
-    #[allow(unsafe_code)]
     pub fn nearest_packet<T>(
         &self,
         rays: [&Ray; 8],
@@ -29,6 +28,29 @@ impl Bvh8 {
         t_max: [f32; 8],
         items: &[T],
         mut leaf: impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
+    ) -> bool {
+        self.nearest_packet_leaves(rays, live, t_min, t_max, items, |mut rays, range, t_max| {
+            while rays != 0 {
+                let k = rays.trailing_zeros() as usize;
+                rays &= rays - 1;
+                t_max[k] = leaf(k, range.clone(), t_max[k]);
+            }
+        })
+    }
+
+    /// [`Bvh8::nearest_packet`] with the leaves given to `leaf(rays, range, t_max)` for
+    /// all the rays (a bit each) that reach them at once, each ray's bound in `t_max`
+    /// to be lowered: a leaf entry with an eight-lane test takes them together.
+    #[inline]
+    #[allow(unsafe_code)]
+    pub fn nearest_packet_leaves<T>(
+        &self,
+        rays: [&Ray; 8],
+        live: u32,
+        t_min: f32,
+        t_max: [f32; 8],
+        items: &[T],
+        mut leaf: impl FnMut(u32, std::ops::Range<usize>, &mut [f32; 8]),
     ) -> bool {
         // SAFETY: as in `start`: a `Bvh8` exists only where the processor has AVX2.
         unsafe {
@@ -48,7 +70,7 @@ impl Bvh8 {
         t_min: f32,
         mut t_max: [f32; 8],
         items: &[T],
-        leaf: &mut impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
+        leaf: &mut impl FnMut(u32, std::ops::Range<usize>, &mut [f32; 8]),
     ) {
         // Per entry: the child, the rays that entered it, and their entry distances.
         let mut stack = [(0u32, 0u32); PACKET_DEEP];
@@ -61,12 +83,7 @@ impl Bvh8 {
             let (index, count) = unpack(packed);
             if count > 0 {
                 let first = index as usize;
-                let mut m = mask;
-                while m != 0 {
-                    let k = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    t_max[k] = leaf(k, first..first + count as usize, t_max[k]);
-                }
+                leaf(mask, first..first + count as usize, &mut t_max);
             } else {
                 let n = &self.nodes[index as usize];
                 let bound = load(&t_max);
@@ -107,9 +124,16 @@ impl Bvh8 {
                             while h != 0 {
                                 let k = h.trailing_zeros() as usize;
                                 h &= h - 1;
-                                let mut go_on = |range, t| Visit::Continue(leaf(k, range, t));
+                                let mut go_on = |range, t| {
+                                    let mut bound = t_max;
+                                    bound[k] = t;
+                                    leaf(1 << k, range, &mut bound);
+                                    Visit::Continue(bound[k])
+                                };
                                 let entry = (n.packed[c], near[c][k]);
-                                self.walk::<true, T>(rays[k], entry, t_min, &mut t_max[k], items, &mut go_on);
+                                let mut t = t_max[k];
+                                self.walk::<true, T>(rays[k], entry, t_min, &mut t, items, &mut go_on);
+                                t_max[k] = t;
                             }
                         }
                     }
