@@ -97,7 +97,7 @@ pub struct DirectionalLight {
 }
 
 impl DirectionalLight {
-    /// `direction` (the way the light travels) is normalised ([`unit`]); it must not
+    /// `direction` (the way the light travels) is normalised ([`unit()`]); it must not
     /// be zero.
     pub fn new(direction: Vec3, color: Color) -> Self {
         DirectionalLight { direction: unit(direction), color }

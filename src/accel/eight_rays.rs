@@ -40,25 +40,24 @@ impl World<'_> {
         {
             let rays = group.each_ref().map(|(r, _)| r);
             let mut nearest = [Nearest::default(); 8];
-            let packed =
-                tree.nearest_packet_leaves(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |mask, range, t| {
-                    for at in range {
-                        match &self.leaves[at] {
-                            // A quad (an SPD floor) met by several rays: tested once for them.
-                            LeafItem::Inline(Inline::Quad(q), i) if mask & (mask - 1) != 0 => {
-                                quad_lanes(q, *i, rays, mask, t, &mut nearest)
-                            }
-                            _ => {
-                                let mut m = mask;
-                                while m != 0 {
-                                    let k = m.trailing_zeros() as usize;
-                                    m &= m - 1;
-                                    t[k] = self.leaf_nearest(at, rays[k], 0.0, t[k], &mut nearest[k]);
-                                }
+            let packed = tree.nearest_packet(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |mask, range, t| {
+                for at in range {
+                    match &self.leaves[at] {
+                        // A quad (an SPD floor) met by several rays: tested once for them.
+                        LeafItem::Inline(Inline::Quad(q), i) if mask & (mask - 1) != 0 => {
+                            quad_lanes(q, *i, rays, mask, t, &mut nearest)
+                        }
+                        _ => {
+                            let mut m = mask;
+                            while m != 0 {
+                                let k = m.trailing_zeros() as usize;
+                                m &= m - 1;
+                                t[k] = self.leaf_nearest(at, rays[k], 0.0, t[k], &mut nearest[k]);
                             }
                         }
                     }
-                });
+                }
+            });
             if packed {
                 for ((_, hit), nearest) in group.iter_mut().zip(nearest) {
                     *hit = nearest.get();
@@ -71,8 +70,8 @@ impl World<'_> {
 
     /// [`World::closest`] for each of `rays`, into `out` (as long): in a world of one
     /// mesh, eight at a time, as one packet where they head into one octant
-    /// ([`wide8::Bvh8::nearest_packet`]), else two walks at a time, interleaved
-    /// ([`wide8::Bvh8::nearest_hits`]); elsewhere one ray after another.
+    /// ([`super::wide8::Bvh8::nearest_packet`]), else two walks at a time, interleaved
+    /// ([`super::wide8::Bvh8::nearest_hits`]); elsewhere one ray after another.
     pub fn closest_each(&self, rays: &[Ray], t_min: f32, t_max: f32, out: &mut [Option<(Hit, u32)>]) {
         let Some(mesh) = self.single_mesh() else {
             for (ray, hit) in rays.iter().zip(out) {

@@ -104,9 +104,10 @@ impl MeshBvh {
         #[cfg(target_arch = "x86_64")]
         if let WideBvh::Eight(tree) = &self.tree {
             let mut best = [None; 8];
-            if tree.nearest_packet(rays.each_ref(), live, t_min, t_max, &self.packs, |k, range, t_cur| {
+            let leaf = super::wide8::each_ray(|k, range, t_cur| {
                 self.nearest_in(range, &Ray4::new(&rays[k]), t_min, t_cur, &mut best[k])
-            }) {
+            });
+            if tree.nearest_packet(rays.each_ref(), live, t_min, t_max, &self.packs, leaf) {
                 return best;
             }
         }

@@ -19,7 +19,7 @@ impl Default for LastBlocker {
 impl World<'_> {
     /// [`World::transmittance`] for each shadow ray and length of `rays`, into `out` (as
     /// long): in a world of one mesh, eight at a time, as one packet where
-    /// [`super::MeshBvh::occluded_eight`] takes them ([`super::wide8::Bvh8::any_packet`]),
+    /// `MeshBvh::occluded_eight` takes them ([`super::wide8::Bvh8::any_packet`]),
     /// the others three walks at a time, interleaved ([`super::wide8::Bvh8::any_hits`]);
     /// elsewhere one ray after another. (In a world of objects, neither packets nor
     /// interleaved walks paid: the sphereflake took as long, docs/performance.md; there

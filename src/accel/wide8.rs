@@ -522,6 +522,7 @@ fn store(v: __m256) -> [f32; 8] {
 }
 
 mod packet;
+pub use packet::each_ray;
 
 #[cfg(test)]
 mod tests;

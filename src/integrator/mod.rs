@@ -363,7 +363,7 @@ fn lane_of(rows: &[[f32; 8]; 3], lane: usize) -> Vec3 {
     Vec3::new(rows[0][lane], rows[1][lane], rows[2][lane])
 }
 
-/// [`towards`] for eight points and normals, lane by lane.
+/// `towards` for eight points and normals, lane by lane.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Towards8 {
     pub l: [[f32; 8]; 3],
@@ -371,8 +371,8 @@ pub struct Towards8 {
     pub n_dot_l: [f32; 8],
 }
 
-/// [`towards`] for eight points `from` and normals `n`, lane by lane: glam's operations
-/// in glam's order, so each lane is bit-identical to [`towards`], written on plain
+/// `towards` for eight points `from` and normals `n`, lane by lane: glam's operations
+/// in glam's order, so each lane is bit-identical to `towards`, written on plain
 /// arrays so that the compiler computes the lanes together (one hit at a time, each
 /// square root and division waited for the one before).
 #[inline]

@@ -15,35 +15,15 @@ impl Bvh8 {
     /// The rays go down the tree together. At each node, each child is tested against
     /// every ray with the single walk's arithmetic lane by lane, and entered by the rays
     /// that pass; so a ray reaches the leaves its own walk reaches (and perhaps more, in
-    /// another order), and `leaf(k, range, t_max)` (ray `k`'s leaf, returning its new
-    /// bound) must not depend on the order, as a nearest hit with ties to the lower id
-    /// does not. Where neighbouring camera rays share most of their nodes, or all leave
+    /// another order). A leaf goes to `leaf(rays, range, t_max)` once, with the rays (a
+    /// bit each) that reach it, whose bounds in `t_max` it lowers: a leaf entry with an
+    /// eight-lane test takes them together, and [`each_ray`] makes a closure for one ray
+    /// at a time. It must not depend on the order, as a nearest hit with ties to the lower
+    /// id does not. Where neighbouring camera rays share most of their nodes, or all leave
     /// the tree after a node or two, one node visit serves them all.
     #[inline]
-    pub fn nearest_packet<T>(
-        &self,
-        rays: [&Ray; 8],
-        live: u32,
-        t_min: f32,
-        t_max: [f32; 8],
-        items: &[T],
-        mut leaf: impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
-    ) -> bool {
-        self.nearest_packet_leaves(rays, live, t_min, t_max, items, |mut rays, range, t_max| {
-            while rays != 0 {
-                let k = rays.trailing_zeros() as usize;
-                rays &= rays - 1;
-                t_max[k] = leaf(k, range.clone(), t_max[k]);
-            }
-        })
-    }
-
-    /// [`Bvh8::nearest_packet`] with the leaves given to `leaf(rays, range, t_max)` for
-    /// all the rays (a bit each) that reach them at once, each ray's bound in `t_max`
-    /// to be lowered: a leaf entry with an eight-lane test takes them together.
-    #[inline]
     #[allow(unsafe_code)]
-    pub fn nearest_packet_leaves<T>(
+    pub fn nearest_packet<T>(
         &self,
         rays: [&Ray; 8],
         live: u32,
@@ -343,3 +323,18 @@ macro_rules! enter_packet {
     }};
 }
 use enter_packet;
+
+/// A [`Bvh8::nearest_packet`] leaf closure from one for a ray at a time: `leaf(k, range,
+/// t_max)`, ray `k`'s leaf, returning its new bound.
+#[inline(always)]
+pub fn each_ray(
+    mut leaf: impl FnMut(usize, std::ops::Range<usize>, f32) -> f32,
+) -> impl FnMut(u32, std::ops::Range<usize>, &mut [f32; 8]) {
+    move |mut rays, range, t_max| {
+        while rays != 0 {
+            let k = rays.trailing_zeros() as usize;
+            rays &= rays - 1;
+            t_max[k] = leaf(k, range.clone(), t_max[k]);
+        }
+    }
+}

@@ -102,10 +102,11 @@ fn packet_walks_match_walks_one_by_one() {
             let t_max: [f32; 8] = std::array::from_fn(|k| [f32::INFINITY, 40.0, 80.0][k % 3]);
             let live = if round % 3 == 0 { 0xff } else { (next() & 0xff) as u32 };
             let mut got = [None; 8];
-            let walked = eight.nearest_packet(rays.each_ref(), live, 0.0, t_max, &[0u8; 0], |k, range, t| {
+            let leaf = each_ray(|k, range, t| {
                 assert!(live >> k & 1 != 0, "a dead lane's leaf");
                 nearest(&rays[k], range, t, &mut got[k])
             });
+            let walked = eight.nearest_packet(rays.each_ref(), live, 0.0, t_max, &[0u8; 0], leaf);
             assert!(walked || round % 2 == 1, "a bundle refused");
             if !walked {
                 assert_eq!(got, [None; 8]);

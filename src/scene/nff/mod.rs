@@ -76,7 +76,7 @@ pub struct Counts {
     pub patches: usize,
     /// Triangles made from `p` and `pp`.
     pub triangles: usize,
-    /// Polygons read as one parallelogram rather than triangles ([`FEW_QUADS`]).
+    /// Polygons read as one parallelogram rather than triangles (`FEW_QUADS`).
     pub quads: usize,
 }
 
