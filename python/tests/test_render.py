@@ -119,6 +119,16 @@ def test_bad_arguments_raise_value_and_type_errors(tmp_path):
         whitted.Sphere((0, 0, 0), -1)
     with pytest.raises(TypeError):
         whitted.Sphere("abc", 1)
+    # Numbers the core's float32 cannot hold are refused here, as a scene file's reader
+    # refuses them, rather than turned into an infinity or a zero.
+    for make in (lambda: whitted.Sphere((0, 0, 0), 1e39), lambda: whitted.Sphere((1e39, 0, 0), 1),
+                 lambda: whitted.Sphere((0, 0, 0), 1e-50), lambda: whitted.Material(shininess=1e39)):
+        with pytest.raises(ValueError, match="float32"):
+            make()
+    tri = ([[0, 0, 0], [1, 0, 0], [0, 1, 0]], [[0, 1, 2]])
+    for normal in (np.nan, 1e39):
+        with pytest.raises(ValueError, match="mesh.normals: must be finite"):
+            whitted.Mesh(*tri, normals=[[0, 0, normal]] * 3, smooth=True)
     with pytest.raises(ValueError):
         whitted.Material(reflectivity=0.6, transparency=0.6)
     with pytest.raises(ValueError):

@@ -38,6 +38,8 @@ def _vec3(field: str, value: Any) -> Vec3:
         raise ValueError(f"{field}: expected three numbers, got {len(items)}")
     if not all(math.isfinite(v) for v in items):
         raise ValueError(f"{field}: must be three finite numbers (got {items})")
+    for v in items:
+        _f32(field, v)
     return (items[0], items[1], items[2])
 
 
@@ -47,13 +49,16 @@ def _number(field: str, value: Any) -> float:
     v = float(value)
     if not math.isfinite(v):
         raise ValueError(f"{field}: must be a finite number (got {v})")
+    # The core holds float32, as a scene file's reader does: past its range is an error
+    # here too, not an infinity later.
+    _f32(field, v)
     return v
 
 
 def _positive(field: str, value: Any) -> float:
     v = _number(field, value)
-    if not v > 0:
-        raise ValueError(f"{field}: must be > 0 (got {v})")
+    if not np.float32(v) > 0:
+        raise ValueError(f"{field}: must be > 0 (got {v}{', 0 in float32' if v > 0 else ''})")
     return v
 
 
@@ -322,12 +327,16 @@ class Mesh:
         self.normals = None if normals is None else self._array("mesh.normals", normals, np.float32)
         if self.normals is not None and self.normals.shape != self.positions.shape:
             raise ValueError(f"mesh.normals: expected shape {self.positions.shape}, got {self.normals.shape}")
+        if self.normals is not None and not np.isfinite(self.normals).all():
+            raise ValueError("mesh.normals: must be finite")
         self.smooth = _bool("mesh.smooth", smooth)
 
     @staticmethod
     def _array(field: str, value: Any, dtype) -> np.ndarray:
         try:
-            a = np.ascontiguousarray(value, dtype=dtype)
+            # Past float32's range is reported as not finite below, without a numpy warning.
+            with np.errstate(over="ignore"):
+                a = np.ascontiguousarray(value, dtype=dtype)
         except (TypeError, ValueError) as e:
             raise TypeError(f"{field}: expected an (N, 3) array: {e}") from None
         if a.ndim != 2 or a.shape[1] != 3:
@@ -348,7 +357,9 @@ class Mesh:
 
 def _f32(field: str, value: float) -> float:
     """`value` as the core will hold it (float32), which must still be finite."""
-    v = float(np.float32(value))
+    # Too big for float32 is an error raised below, not a numpy warning as well.
+    with np.errstate(over="ignore"):
+        v = float(np.float32(value))
     if not math.isfinite(v):
         raise ValueError(f"{field}: must be a finite float32 number (got {value})")
     return v
