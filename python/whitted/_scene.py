@@ -368,7 +368,7 @@ def _f32(field: str, value: float) -> float:
 def _direction(field: str, value: Any) -> Vec3:
     """Three finite numbers, not the zero vector (in float32, as the core normalises it)."""
     d = _vec3(field, value)
-    x, y, z = (np.float32(_f32(field, v)) for v in d)
+    x, y, z = (np.float32(v) for v in d)
     with np.errstate(over="ignore", under="ignore"):
         length_squared = x * x + y * y + z * z
     if not length_squared > 0:
@@ -381,8 +381,6 @@ def _attenuation(field: str, value: Any) -> Vec3:
     a = _vec3(field, value)
     if min(a) < 0:
         raise ValueError(f"{field}: must be three finite numbers >= 0 (got {list(a)})")
-    for v in a:
-        _f32(field, v)
     if not any(np.float32(v) > 0 for v in a):
         raise ValueError(f"{field}: must not be all zero (1 / 0 light); (1, 0, 0) is none")
     return a
