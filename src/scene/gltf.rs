@@ -62,7 +62,9 @@ pub fn add_gltf(scene: &mut Scene, path: &Path, transform: Mat4) -> Result<Asset
     let name = path.display().to_string();
     let fail = |message: String| SceneError::File { file: name.clone(), message };
     let bytes = std::fs::read(path).map_err(|e| fail(format!("cannot read the glTF file: {e}")))?;
-    let gltf::Gltf { document, mut blob } = gltf::Gltf::from_slice(&bytes).map_err(|e| fail(describe(&e)))?;
+    let gltf::Gltf { document, mut blob } =
+        gltf::Gltf::from_slice_without_validation(&bytes).map_err(|e| fail(describe(&e)))?;
+    validate(document.as_json()).map_err(fail)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut buffers = Vec::new();
     for b in document.buffers() {
@@ -107,6 +109,33 @@ pub fn add_gltf(scene: &mut Scene, path: &Path, transform: Mat4) -> Result<Asset
     Ok(Asset { camera: reader.camera, warnings })
 }
 
+/// The `gltf` crate's checks of a parsed document, after one of ours that they rely on:
+/// its check of a primitive's `POSITION` accessor indexes the accessors without a bound
+/// (gltf-json 1.4.1, `mesh.rs`), so an index past them would panic, not be reported.
+fn validate(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::validation::{Checked, Validate};
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            let position = primitive.attributes.get(&Checked::Valid(gltf::Semantic::Positions));
+            if let Some(i) = position.map(|i| i.value())
+                && i >= root.accessors.len()
+            {
+                return Err(format!(
+                    "invalid glTF: meshes[{m}].primitives[{p}].attributes.POSITION: accessor {i} does not exist \
+                     (the file has {} accessors)",
+                    root.accessors.len()
+                ));
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, error| errors.push((path(), error)));
+    match errors.is_empty() {
+        true => Ok(()),
+        false => Err(describe(&gltf::Error::Validation(errors))),
+    }
+}
+
 /// What an accessor must hold to be read as.
 #[derive(Clone, Copy)]
 enum Kind {
@@ -131,7 +160,13 @@ fn describe(e: &gltf::Error) -> String {
             let more = if list.len() > 5 { format!(" (and {} more)", list.len() - 5) } else { String::new() };
             format!("invalid glTF: {}{more}", parts.join("; "))
         }
-        gltf::Error::Deserialize(j) => format!("line {}, column {}: not valid glTF JSON: {j}", j.line(), j.column()),
+        gltf::Error::Deserialize(j) => {
+            // serde_json ends its message with the place, which this puts first.
+            let (line, column) = (j.line(), j.column());
+            let message = j.to_string();
+            let message = message.strip_suffix(&format!(" at line {line} column {column}")).unwrap_or(&message);
+            format!("line {line}, column {column}: not valid glTF JSON: {message}")
+        }
         gltf::Error::Binary(b) => {
             use gltf::binary::Error as B;
             let detail = match b {
