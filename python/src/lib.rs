@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::mpsc;
 use std::time::Duration;
 use whitted::camera::Camera;
-use whitted::film::{ColorEncoding, Image, OutputError, rgb8_of, write_png};
+use whitted::film::{ColorEncoding, Image, OutputError, OutputOptions, PendingOutput, rgb8_of};
 use whitted::geometry::{Cone, Cylinder, Mesh, Quad, Sphere, Triangle};
 use whitted::light::{Attenuation, DirectionalLight, Light, PointLight, SpotLight};
 use whitted::material::Material;
@@ -60,15 +60,29 @@ struct CoreScene {
 
 #[pymethods]
 impl CoreScene {
-    /// Reads a scene file (TOML or NFF) with the command line's reader and messages.
-    /// Returns the scene and the file's text (kept so the scene can be pickled).
+    /// Reads a scene file with the command line's reader and messages; `format` is
+    /// `toml`, `nff`, `obj` or `gltf`. Returns the scene and, for the text formats, the
+    /// file's text (kept so the scene can be pickled; OBJ and glTF files are read again).
     #[staticmethod]
-    fn load(py: Python<'_>, path: &str, nff: bool) -> PyResult<(CoreScene, String)> {
+    fn load(py: Python<'_>, path: &str, format: &str) -> PyResult<(CoreScene, Option<String>)> {
         let path = Path::new(path);
-        let format = if nff { scene::Format::Nff } else { scene::Format::Toml };
+        let format = match format {
+            "toml" => scene::Format::Toml,
+            "nff" => scene::Format::Nff,
+            "obj" => scene::Format::Obj,
+            "gltf" => scene::Format::Gltf,
+            other => {
+                return Err(PyValueError::new_err(format!("format: expected toml, nff, obj or gltf, got {other:?}")));
+            }
+        };
         let loaded = py.detach(|| scene::load_path(path, format)).map_err(scene_error)?;
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SceneError::new_err(format!("{}: cannot read the scene: {e}", path.display())))?;
+        let text = match format {
+            scene::Format::Toml | scene::Format::Nff => Some(
+                std::fs::read_to_string(path)
+                    .map_err(|e| SceneError::new_err(format!("{}: cannot read the scene: {e}", path.display())))?,
+            ),
+            scene::Format::Obj | scene::Format::Gltf => None,
+        };
         Ok((CoreScene { scene: loaded.scene, animation: loaded.animation.map(Arc::new) }, text))
     }
 
@@ -129,6 +143,15 @@ impl CoreScene {
     fn settings(&self) -> (V3, u32, u32, f32) {
         let s = self.scene.settings;
         (t3(s.background), s.max_depth, s.samples, s.ambient)
+    }
+
+    /// How the scene file says 8-bit output encodes colour (`[settings] color`; glTF
+    /// files: sRGB): `"linear"` or `"srgb"`.
+    fn color(&self) -> &'static str {
+        match self.scene.settings.color {
+            ColorEncoding::Linear => "linear",
+            ColorEncoding::Srgb => "srgb",
+        }
     }
 
     /// Counts of (materials, objects, lights).
@@ -415,14 +438,15 @@ fn from_numpy(array: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
 /// Writes a (height, width, 3) float32 C-contiguous array as a PNG file, whole or not at
 /// all (a temporary file renamed into place), quantised as the command line does.
 #[pyfunction]
-fn write_png_array(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, path: &str) -> PyResult<()> {
+fn write_png_array(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, path: &str, srgb: bool) -> PyResult<()> {
     let image = from_numpy(&image)?;
     let path = Path::new(path);
     // The command line picks the format by extension; this function is named for one.
     if !path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("png")) {
         return Err(PyValueError::new_err(format!("{}: write_png writes only PNG files (.png)", path.display())));
     }
-    py.detach(|| write_png(&image, path)).map_err(|e| match e {
+    let options = OutputOptions { color: encoding(srgb), bits: None };
+    py.detach(|| PendingOutput::create_with(path, options)?.commit(&image)).map_err(|e| match e {
         OutputError::Io { .. } => PyOSError::new_err(e.to_string()),
         _ => PyValueError::new_err(e.to_string()),
     })
@@ -431,15 +455,19 @@ fn write_png_array(py: Python<'_>, image: PyReadonlyArray3<'_, f32>, path: &str)
 /// The PNG file's bytes for an image (for Jupyter, and the frames Dask workers send):
 /// quantised straight from the array as the command line does, the GIL released.
 #[pyfunction]
-fn encode_png<'py>(py: Python<'py>, image: PyReadonlyArray3<'_, f32>) -> PyResult<Bound<'py, PyBytes>> {
+fn encode_png<'py>(py: Python<'py>, image: PyReadonlyArray3<'_, f32>, srgb: bool) -> PyResult<Bound<'py, PyBytes>> {
     let (w, h, data) = image_floats(&image)?;
     let png = py.detach(|| {
-        let rgb = image::RgbImage::from_raw(w, h, rgb8_of(data, ColorEncoding::Linear)).expect("h x w x 3 floats");
+        let rgb = image::RgbImage::from_raw(w, h, rgb8_of(data, encoding(srgb))).expect("h x w x 3 floats");
         let mut out = std::io::Cursor::new(Vec::new());
         rgb.write_to(&mut out, image::ImageFormat::Png).map(|()| out.into_inner())
     });
     let png = png.map_err(|e| PyValueError::new_err(format!("cannot encode the image: {e}")))?;
     Ok(PyBytes::new(py, &png))
+}
+
+fn encoding(srgb: bool) -> ColorEncoding {
+    if srgb { ColorEncoding::Srgb } else { ColorEncoding::Linear }
 }
 
 #[pymodule]

@@ -69,6 +69,13 @@ def test_render_many_writes_every_frame(local_client, tmp_path):
     assert sorted(os.listdir(tmp_path / "out")) == sorted(os.path.basename(p) for p in paths)
     # Different frames: the camera moved.
     assert len({open(p, "rb").read() for p in paths}) == 5
+    # A scene whose file asks for sRGB output gets sRGB frames, as `whitted render` writes.
+    srgb = tmp_path / "srgb.toml"
+    srgb.write_text(ROOM.read_text().replace("[settings]\n", '[settings]\ncolor = "srgb"\n', 1))
+    frame = whitted.load(srgb, width=48, height=40)
+    (path,) = wd.render_many([frame], local_client, tmp_path / "srgb", progress=False)
+    with open(path, "rb") as f:
+        assert f.read() == whitted.to_png_bytes(whitted.render(frame), color="srgb")
     if os.name == "posix":  # a new file's usual mode, not mkstemp's private 0600
         mask = os.umask(0o022)
         os.umask(mask)

@@ -105,7 +105,7 @@ def test_bad_arguments_raise_value_and_type_errors(tmp_path):
     with pytest.raises(ValueError):
         whitted.load(ROOM, width=0)
     with pytest.raises(ValueError):
-        whitted.load(ROOM, format="obj")
+        whitted.load(ROOM, format="ply")
     image = whitted.render(scene)
     with pytest.raises(ValueError, match="only PNG"):
         whitted.write_png(image, tmp_path / "x.jpg")
@@ -115,6 +115,10 @@ def test_bad_arguments_raise_value_and_type_errors(tmp_path):
         whitted.write_png(image[:, :, :2], tmp_path / "x.png")
     with pytest.raises(TypeError):
         whitted.write_png([[1, 2, 3]], tmp_path / "x.png")
+    with pytest.raises(ValueError, match="color: expected 'linear' or 'srgb'"):
+        whitted.write_png(image, tmp_path / "x.png", color="gamma")
+    with pytest.raises(TypeError):
+        whitted.to_png_bytes(image, color=True)
     with pytest.raises(ValueError):
         whitted.Sphere((0, 0, 0), -1)
     with pytest.raises(TypeError):
@@ -292,6 +296,44 @@ def test_scenes_pickle_as_their_source_and_render_the_same():
     scene = code_scene()
     scene.add(whitted.Mesh(np.eye(3), [[0, 1, 2]]), whitted.Material())
     assert whitted.render(pickle.loads(pickle.dumps(scene))).tobytes() == whitted.render(scene).tobytes()
+
+
+def test_a_scenes_colour_encoding_writes_what_the_command_line_writes(tmp_path, whitted_bin):
+    srgb = tmp_path / "srgb.toml"
+    srgb.write_text(ROOM.read_text().replace("[settings]\n", '[settings]\ncolor = "srgb"\n', 1))
+    for path, color in [(ROOM, "linear"), (srgb, "srgb")]:
+        cli, ours = tmp_path / f"cli-{color}.png", tmp_path / f"ours-{color}.png"
+        subprocess.run([whitted_bin, "render", str(path), "--width", "40", "--height", "30", "-q", "-o", str(cli)],
+                       check=True)
+        scene = whitted.load(path, width=40, height=30)
+        assert scene.color == color
+        image = whitted.render(scene)
+        whitted.write_png(image, ours, color=scene.color)
+        assert ours.read_bytes() == cli.read_bytes()
+    # sRGB brightens the dark tones: the two files differ.
+    assert (tmp_path / "cli-linear.png").read_bytes() != (tmp_path / "cli-srgb.png").read_bytes()
+    assert whitted.Scene(whitted.Camera((0, 0, 1), (0, 0, 0))).color == "linear"
+
+
+@pytest.mark.parametrize("name", ["torus.obj", "model.glb"])
+def test_obj_and_gltf_files_load_as_the_command_line_reads_them(tmp_path, whitted_bin, name):
+    path = ROOM.parent / name
+    cli = tmp_path / "cli.png"
+    args = [whitted_bin, "render", str(path), "--width", "64", "--height", "48", "-q", "-o", str(cli)]
+    subprocess.run(args, check=True)
+    scene = whitted.load(path, width=64, height=48)
+    image = whitted.render(scene)
+    assert image.mean() > 0.02  # the model in its default view and light, not a black frame
+    assert whitted.to_png_bytes(image, color=scene.color) == cli.read_bytes()
+    # Pickled as the file's path, read again on the other side.
+    back = pickle.loads(pickle.dumps(scene))
+    assert back._base._core is None
+    assert whitted.render(back).tobytes() == image.tobytes()
+    # A broken file raises the command line's message.
+    broken = tmp_path / ("broken" + path.suffix)
+    broken.write_bytes(path.read_bytes()[: len(path.read_bytes()) // 3])
+    with pytest.raises(whitted.SceneError, match=str(broken)):
+        whitted.load(broken)
 
 
 def test_show_makes_an_ipython_image(monkeypatch):

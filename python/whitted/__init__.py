@@ -135,21 +135,31 @@ def _image(image: Any) -> np.ndarray:
     return np.ascontiguousarray(image, dtype=np.float32)
 
 
-def write_png(image: np.ndarray, path: Union[str, os.PathLike]) -> None:
+def _srgb(color: Any) -> bool:
+    if not isinstance(color, str):
+        raise TypeError(f"color: expected 'linear' or 'srgb', got {type(color).__name__}")
+    if color not in ("linear", "srgb"):
+        raise ValueError(f"color: expected 'linear' or 'srgb', got {color!r}")
+    return color == "srgb"
+
+
+def write_png(image: np.ndarray, path: Union[str, os.PathLike], *, color: str = "linear") -> None:
     """Writes a (height, width, 3) linear-colour array as 8-bit PNG, clamped and
-    quantised as the command line does, whole or not at all (temporary file + rename)."""
+    quantised as the command line does, whole or not at all (temporary file + rename).
+    `color` is how the file encodes colour, as ``--color``: ``"linear"`` or ``"srgb"``;
+    ``color=scene.color`` writes what ``whitted render`` writes for that scene."""
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: expected str or os.PathLike, got {type(path).__name__}")
-    _core.write_png_array(_image(image), os.fspath(path))
+    _core.write_png_array(_image(image), os.fspath(path), _srgb(color))
 
 
-def to_png_bytes(image: np.ndarray) -> bytes:
+def to_png_bytes(image: np.ndarray, *, color: str = "linear") -> bytes:
     """The PNG file :func:`write_png` would write, as bytes."""
-    return _core.encode_png(_image(image))
+    return _core.encode_png(_image(image), _srgb(color))
 
 
-def show(image: np.ndarray):
+def show(image: np.ndarray, *, color: str = "linear"):
     """Shows an image inline in Jupyter (returns an ``IPython.display.Image``)."""
     from IPython.display import Image
 
-    return Image(data=to_png_bytes(image), format="png")
+    return Image(data=to_png_bytes(image, color=color), format="png")

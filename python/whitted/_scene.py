@@ -501,7 +501,7 @@ class _Base:
     once made (a change makes a new one), so scenes and threads can share it."""
 
     def __init__(self, source=None, background=None, ambient=None, materials=(), objects=(), lights=(), core=None):
-        self.source = source  # None or (kind, text, name, base_dir)
+        self.source = source  # None or (kind, text or None, name, base_dir)
         self.background = background
         self.ambient = ambient
         self.materials = tuple(materials)
@@ -522,6 +522,8 @@ class _Base:
         if self.source is None:
             return _core.CoreScene.empty()
         kind, text, name, base_dir = self.source
+        if text is None:  # OBJ and glTF: read from the file again
+            return _core.CoreScene.load(name, kind)[0]
         return _core.CoreScene.parse(text, name, base_dir, kind == "nff")
 
     def core(self):
@@ -653,6 +655,14 @@ class Scene:
     def ambient(self, value: float) -> None:
         self._base = self._base.changed(ambient=_share("ambient", value))
 
+    @property
+    def color(self) -> str:
+        """How the scene file says output files encode colour (``[settings] color``):
+        ``"linear"`` or ``"srgb"`` (glTF files: ``"srgb"``; scenes built in code:
+        ``"linear"``). Give it to :func:`whitted.write_png` to write what ``whitted
+        render`` writes."""
+        return self._base.core().color()
+
     # -- building ------------------------------------------------------------------
 
     def add(self, item: Union[Shape, Light], material: Optional[Material] = None) -> "Scene":
@@ -726,28 +736,38 @@ class Scene:
 _OVERRIDES = ("width", "height", "spp", "max_depth", "fov", "position", "look_at", "up", "background", "ambient")
 
 
+# File extensions of the formats other than TOML, for :func:`load`.
+_FORMATS = {".nff": "nff", ".obj": "obj", ".gltf": "gltf", ".glb": "gltf"}
+
+
 def load(path: Union[str, os.PathLike], *, format: Optional[str] = None, **overrides: Any) -> Scene:
-    """Reads a TOML or NFF scene file (NFF by its .nff extension, or ``format="nff"``).
+    """Reads a scene file: TOML, NFF (``.nff``), a Wavefront OBJ mesh (``.obj``) or glTF
+    (``.gltf``, ``.glb``), by its extension or ``format=`` (``"toml"``, ``"nff"``,
+    ``"obj"``, ``"gltf"``), as ``whitted render`` does: an OBJ or glTF file without a
+    camera or lights gets the command line's default view and light.
 
     Overrides: ``width``, ``height``, ``spp``, ``max_depth``, ``fov``, ``position``,
     ``look_at``, ``up``, ``background``, ``ambient``. Problems in the file raise
     :class:`whitted.SceneError` with the command line's message (file:line:column: field).
+    A scene pickles as its file's text, or for OBJ and glTF as the file's absolute path,
+    read again where it is unpickled.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: expected str or os.PathLike, got {type(path).__name__}")
     path = os.fspath(path)
     if format is None:
-        nff = path.lower().endswith(".nff")
-    elif format in ("toml", "nff"):
-        nff = format == "nff"
+        kind = _FORMATS.get(os.path.splitext(path)[1].lower(), "toml")
+    elif format in ("toml", "nff", "obj", "gltf"):
+        kind = format
     else:
-        raise ValueError(f"format: expected 'toml' or 'nff', got {format!r}")
+        raise ValueError(f"format: expected 'toml', 'nff', 'obj' or 'gltf', got {format!r}")
     for key in overrides:
         if key not in _OVERRIDES:
             raise TypeError(f"load() got an unexpected keyword argument {key!r} (overrides: {', '.join(_OVERRIDES)})")
-    core, text = _core.CoreScene.load(path, nff)
+    core, text = _core.CoreScene.load(path, kind)
     base_dir = os.path.abspath(os.path.dirname(path) or ".")
-    scene = Scene._from_core(core, ("nff" if nff else "toml", text, path, base_dir))
+    name = path if text is not None else os.path.abspath(path)
+    scene = Scene._from_core(core, (kind, text, name, base_dir))
     cam = {k: overrides.pop(k) for k in ("width", "height", "fov", "position", "look_at", "up") if k in overrides}
     if cam:
         scene.camera = scene.camera.replace(**cam)

@@ -45,7 +45,7 @@ def _render_frame(base: _Base, camera, spp, max_depth, frame=None) -> bytes:
     scene._base, scene.camera, scene.spp, scene.max_depth = base, camera, spp, max_depth
     scene._frame = frame
     image = whitted.render(scene, threads=1)
-    return whitted.to_png_bytes(image)
+    return whitted.to_png_bytes(image, color=scene.color)
 
 
 def _render_frames(base: _Base, frames) -> List[bytes]:
