@@ -167,3 +167,29 @@ fn convert_names_materials_and_objects_as_the_file_does() {
     let e = stderr(&run);
     assert!(e.contains("[[sphere]] 2 (line 28)") && e.contains("stretched"), "{e}");
 }
+
+#[test]
+fn obj_and_gltf_files_convert_to_toml_that_renders_the_same() {
+    let tmp = tempfile::tempdir().unwrap();
+    for name in ["torus.obj", "model.glb"] {
+        let input = common::manifest(&format!("scenes/{name}"));
+        let toml = tmp.path().join(format!("{name}.toml"));
+        // `-o`, as `render` and `generate` take their output.
+        let run = whitted(&["convert", input.to_str().unwrap(), "-o", toml.to_str().unwrap(), "-q"]);
+        assert!(run.status.success(), "{name}: {}", stderr(&run));
+        let [a, b] = ["from-file.png", "from-toml.png"].map(|p| tmp.path().join(p));
+        for (scene, png) in [(&input, &a), (&toml, &b)] {
+            let size = ["--width", "96", "--height", "64"];
+            let run =
+                whitted(&[&["render", scene.to_str().unwrap(), "-q", "-o", png.to_str().unwrap()][..], &size].concat());
+            assert!(run.status.success(), "{}: {}", scene.display(), stderr(&run));
+        }
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap(), "{name}: the TOML renders otherwise");
+    }
+    // One output, given either way.
+    let obj = common::manifest("scenes/torus.obj");
+    let run = whitted(&["convert", obj.to_str().unwrap()]);
+    assert_eq!(run.status.code(), Some(2), "{}", stderr(&run));
+    let run = whitted(&["convert", obj.to_str().unwrap(), "a.toml", "-o", "b.toml"]);
+    assert_eq!(run.status.code(), Some(2), "{}", stderr(&run));
+}

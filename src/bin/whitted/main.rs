@@ -31,7 +31,8 @@ enum Command {
     /// Show a scene in a window, refined progressively and reloaded when its file
     /// changes. Keys: h lists them.
     View(ViewArgs),
-    /// Write a scene (NFF or TOML) as the project's TOML, to edit it with the full format.
+    /// Write a scene (TOML, NFF, OBJ or glTF) as the project's TOML, to edit it with the
+    /// full format.
     Convert(ConvertArgs),
     /// Write a procedural test scene: the SPD sphereflake, as NFF.
     Generate(GenerateArgs),
@@ -39,10 +40,14 @@ enum Command {
 
 #[derive(clap::Args)]
 struct ConvertArgs {
-    /// Scene to read: NFF (by its .nff extension, or --format) or TOML.
+    /// Scene to read: TOML, NFF, OBJ or glTF (by extension, or --format).
     input: PathBuf,
     /// TOML file to write (replaced whole, or left alone if anything fails).
-    output: PathBuf,
+    #[arg(value_name = "OUTPUT", required_unless_present = "output", conflicts_with = "output")]
+    to: Option<PathBuf>,
+    /// The TOML file to write, given as `render` and `generate` take theirs.
+    #[arg(short, long, value_name = "OUTPUT")]
+    output: Option<PathBuf>,
     /// Input format, instead of guessing from the extension.
     #[arg(long, value_enum)]
     format: Option<Format>,
@@ -448,12 +453,12 @@ fn parse_region(s: &str) -> Result<[u32; 4], String> {
 }
 
 fn convert(args: ConvertArgs) -> Result<(), String> {
-    let is_toml = args.output.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let Some(output) = args.to.or(args.output) else {
+        return Err("give the TOML file to write: whitted convert IN OUT.toml (or -o OUT.toml)".into());
+    };
+    let is_toml = output.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     if !is_toml {
-        return Err(format!(
-            "{}: only TOML output is supported (give the file a .toml extension)",
-            args.output.display()
-        ));
+        return Err(format!("{}: only TOML output is supported (give the file a .toml extension)", output.display()));
     }
     let loaded = scene::load_path(&args.input, Format::resolve(args.format, &args.input)).map_err(|e| e.to_string())?;
     if !args.quiet {
@@ -465,8 +470,8 @@ fn convert(args: ConvertArgs) -> Result<(), String> {
         }
     }
     let note = format!("Converted from {} by whitted convert.", args.input.display());
-    scene::save::save_toml(&loaded.scene, &note, &args.output).map_err(|e| match e {
-        scene::save::SaveError::Io { source, .. } => format!("{}: cannot write: {source}", args.output.display()),
+    scene::save::save_toml(&loaded.scene, &note, &output).map_err(|e| match e {
+        scene::save::SaveError::Io { source, .. } => format!("{}: cannot write: {source}", output.display()),
         other => format!("{}: {other}", args.input.display()),
     })
 }
