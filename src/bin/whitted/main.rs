@@ -101,8 +101,9 @@ struct BenchArgs {
 
 #[derive(clap::Args)]
 struct ViewArgs {
-    /// Scene file (TOML), reloaded when it or a file it names changes. Without one, the
-    /// built-in seed room (give scenes/room.toml to edit it live).
+    /// Scene file: TOML, NFF, OBJ or glTF (.gltf, .glb), by extension; reloaded when it
+    /// or a file it names changes. Without one, the built-in seed room (give
+    /// scenes/room.toml to edit it live).
     scene: Option<PathBuf>,
     /// Window width in pixels (default: the scene camera's).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=MAX_RESOLUTION), requires = "height")]
