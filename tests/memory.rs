@@ -88,8 +88,8 @@ fn working_memory_does_not_grow_with_depth_or_samples() {
     let scene = glass_box(16);
     // With the default cutoff the glass box's rays fade out after a few levels; without
     // it every level doubles them, and the wave must send the excess depth first.
-    let (shallow, _) = render(&scene, 10, 1, whitted::integrator::DEFAULT_CUTOFF);
-    let (deep, image) = render(&scene, 1000, 1, whitted::integrator::DEFAULT_CUTOFF);
+    let (shallow, _) = render(&scene, 10, 1, whitted::scene::DEFAULT_CUTOFF);
+    let (deep, image) = render(&scene, 1000, 1, whitted::scene::DEFAULT_CUTOFF);
     assert!(image.pixel(8, 8) != Color::ZERO);
     eprintln!("glass box 16x16: depth 10 {shallow} bytes, depth 1000 {deep} bytes");
     assert!(deep < shallow + (256 << 10), "depth 1000 held {deep} bytes, depth 10 {shallow}");

@@ -27,10 +27,6 @@ use glam::Vec4;
 /// The index of refraction of the space between objects.
 pub const OUTSIDE_IOR: f32 = 1.0;
 
-/// A ray's share of its pixel below which it is not followed, by default: POV-Ray's
-/// `adc_bailout`, one level of an 8-bit channel.
-pub const DEFAULT_CUTOFF: f32 = 1.0 / 255.0;
-
 /// Traces rays through a [`World`].
 #[derive(Clone, Copy, Debug)]
 pub struct Integrator<'w, 's> {

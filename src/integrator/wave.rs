@@ -389,7 +389,7 @@ mod tests {
         let mut scene = branchy();
         let render = |scene: &Scene| Renderer::new(scene).unwrap().max_depth(12).render_with_progress(&|_, _| {});
         let all = render(&scene);
-        scene.settings.cutoff = crate::integrator::DEFAULT_CUTOFF;
+        scene.settings.cutoff = crate::scene::DEFAULT_CUTOFF;
         let cut = render(&scene);
         let sent = |s: &RayStats| s.reflection + s.refraction;
         assert!(sent(&cut.stats) * 2 < sent(&all.stats), "{:?} vs {:?}", cut.stats, all.stats);

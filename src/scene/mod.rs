@@ -131,6 +131,10 @@ pub struct Settings {
     pub color: crate::film::ColorEncoding,
 }
 
+/// A ray's share of its pixel below which it is not followed, by default: POV-Ray's
+/// `adc_bailout`, one level of an 8-bit channel.
+pub const DEFAULT_CUTOFF: f32 = 1.0 / 255.0;
+
 impl Default for Settings {
     fn default() -> Self {
         Settings {
@@ -138,7 +142,7 @@ impl Default for Settings {
             max_depth: 10,
             samples: 1,
             ambient: 0.2,
-            cutoff: crate::integrator::DEFAULT_CUTOFF,
+            cutoff: DEFAULT_CUTOFF,
             color: crate::film::ColorEncoding::Linear,
         }
     }
