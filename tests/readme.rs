@@ -28,7 +28,7 @@ fn paths(text: &str, prefix: &str, exts: &[&str]) -> BTreeSet<String> {
 #[test]
 fn every_scene_the_readme_names_exists_and_renders() {
     let text = readme();
-    let scenes = paths(&text, "scenes/", &[".toml", ".nff"]);
+    let scenes = paths(&text, "scenes/", &[".toml", ".nff", ".obj", ".glb", ".gltf"]);
     assert!(scenes.len() >= 6, "too few scenes found: {scenes:?}");
     let tmp = tempfile::tempdir().unwrap();
     for s in &scenes {
