@@ -71,7 +71,12 @@ fn instances_render_as_copies_of_the_mesh_would() {
 #[test]
 fn instances_share_one_tree() {
     let mesh = Arc::new(generate::cube_sphere(24));
-    let bytes = |n, instanced| World::new(&ring(&mesh, n, instanced), AccelKind::Bvh).memory_bytes();
+    // The trees alone: the light's buffer grows with the objects round it, shared or not.
+    let bytes = |n, instanced| {
+        let scene = ring(&mesh, n, instanced);
+        let world = World::new(&scene, AccelKind::Bvh);
+        world.memory_bytes() - world.light_buffer_bytes()
+    };
     let (one, many, copies) = (bytes(1, true), bytes(300, true), bytes(300, false));
     // 300 instances add their top-level entries, about 200 bytes each; 300 copies
     // add 299 trees of the mesh.

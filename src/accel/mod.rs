@@ -20,6 +20,7 @@ pub mod bvh;
 mod cull;
 mod eight_rays;
 pub mod lanes;
+mod light_buffer;
 mod mesh_bvh;
 #[cfg(target_arch = "x86_64")]
 mod packet8;
@@ -204,6 +205,8 @@ pub struct World<'s> {
     flat: bool,
     /// Whether the eight-lane code runs ([`lanes::avx2`]), for [`World::closest_among_each`].
     avx2: bool,
+    /// Per light of the scene, its light buffer where it has one.
+    light_buffers: Vec<Option<light_buffer::LightBuffer>>,
 }
 
 impl<'s> World<'s> {
@@ -256,6 +259,10 @@ impl<'s> World<'s> {
         };
         let mut top4 = if top.nodes.is_empty() { WideBvh::default() } else { wide(&top, width) };
         let mut leaves = Vec::new();
+        let mut boxes: Vec<crate::math::Aabb> = Vec::new();
+        let bound = |ids: &mut dyn Iterator<Item = u32>| {
+            ids.fold(crate::math::Aabb::EMPTY, |b, i| b.union(scene.objects[i as usize].shape.bounds()))
+        };
         // Packs of eight only where the 8-wide walk (built for AVX2) tests them.
         let pack = if top4.width() == 8 { 8 } else { 4 };
         top4.map_leaves(|first, count| {
@@ -267,11 +274,13 @@ impl<'s> World<'s> {
             };
             let round: Vec<_> = ids.iter().filter_map(|&i| sphere(i)).collect();
             for chunk in round.chunks(pack) {
+                boxes.push(bound(&mut chunk.iter().map(|&(_, i)| i)));
                 leaves.push(match pack {
                     8 => LeafItem::Spheres8(Sphere8::pack(chunk)),
                     _ => LeafItem::Spheres(Sphere4::pack(chunk)),
                 });
             }
+            boxes.extend(ids.iter().filter(|&&i| sphere(i).is_none()).map(|&i| bound(&mut std::iter::once(i))));
             leaves.extend(ids.iter().filter(|&&i| sphere(i).is_none()).map(|&i| {
                 match Inline::of(&scene.objects[i as usize].shape) {
                     Some(shape) => LeafItem::Inline(shape, i),
@@ -283,6 +292,28 @@ impl<'s> World<'s> {
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
         let leaves = crate::pages::on_huge_pages(leaves);
         let avx2 = lanes::avx2();
+        // Light buffers for the lights with a position, over the tree's leaf entries
+        // (`WHITTED_LIGHT_BUFFERS=0` in the environment goes without, to compare).
+        let cells = match std::env::var_os("WHITTED_LIGHT_BUFFERS").is_some_and(|v| v == "0") || flat {
+            true => 0,
+            false => light_buffer::LightBuffer::side(boxes.len()),
+        };
+        use rayon::prelude::*;
+        let placed: Vec<usize> = (0..scene.lights.len()).filter(|&k| scene.lights[k].position().is_some()).collect();
+        let placed = &placed[..placed.len().min(light_buffer::MAX_LIGHTS)];
+        let mut light_buffers: Vec<_> = scene.lights.iter().map(|_| None).collect();
+        if cells > 0 {
+            let built: Vec<_> = placed
+                .par_iter()
+                .map(|&k| {
+                    let at = scene.lights[k].position().expect("placed");
+                    light_buffer::LightBuffer::build(at, &boxes, cells)
+                })
+                .collect();
+            for (&k, buffer) in placed.iter().zip(built) {
+                light_buffers[k] = buffer;
+            }
+        }
         World {
             scene,
             kind,
@@ -295,6 +326,7 @@ impl<'s> World<'s> {
             build_time: start.elapsed(),
             flat,
             avx2,
+            light_buffers,
         }
     }
 
@@ -322,6 +354,12 @@ impl<'s> World<'s> {
         self.leaves.capacity() * std::mem::size_of::<LeafItem>()
             + self.top4.memory_bytes()
             + self.unique_meshes().map(|m| m.memory_bytes()).sum::<usize>()
+            + self.light_buffer_bytes()
+    }
+
+    /// Of [`World::memory_bytes`], the bytes of the lights' buffers.
+    pub fn light_buffer_bytes(&self) -> usize {
+        self.light_buffers.iter().flatten().map(|b| b.memory_bytes()).sum()
     }
 
     /// Each mesh tree once, however many objects share it.

@@ -482,3 +482,98 @@ fn memory_is_reported_per_structure() {
     assert!(World::new(&scene, AccelKind::Bvh).memory_bytes() > 0);
     assert_eq!(World::new(&scene, AccelKind::None).memory_bytes(), 0);
 }
+
+/// Shadow rays through the lights' buffers get the answers of testing every object:
+/// opaque and glass objects of every kind, spheres in packs, 4- and 8-wide trees, lights
+/// outside the objects, among them and inside an object's box; rays from anywhere,
+/// also from points on the edges between the buffer's faces, with the last blocker
+/// carried or picked at random. Both kinds of cell are met: listed and crowded.
+#[test]
+fn shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
+    for (seed, width) in [(5u64, 4), (6, 8)] {
+        let mut scene = random_scene(seed, 150);
+        let mut r = Rng::new(700 + seed);
+        let (opaque, glass) = (crate::scene::MaterialId(0), crate::scene::MaterialId(1));
+        for i in 0..600 {
+            let s = Sphere::new(v(&mut r, 12.0), 0.05 + 0.5 * r.next_f32());
+            scene.add(s, if i % 4 == 0 { glass } else { opaque });
+        }
+        // A crowd: many small spheres in a narrow cone of one light's directions.
+        for i in 0..400 {
+            scene.add(
+                Sphere::new(Vec3::new(30.0, 0.0, 0.0) + v(&mut r, 1.0), 0.05),
+                if i % 3 == 0 { glass } else { opaque },
+            );
+        }
+        let inside = scene.objects[7].shape.bounds().center();
+        let lights = [Vec3::new(40.0, 0.5, 0.3), Vec3::new(-3.0, 25.0, 10.0), v(&mut r, 10.0), inside];
+        for &at in &lights {
+            scene.add_light(crate::light::PointLight::new(at, Color::ONE));
+        }
+        let (bvh, brute) =
+            (World::with_width(&scene, AccelKind::Bvh, Some(width)), World::new(&scene, AccelKind::None));
+        let buffers: Vec<_> = bvh
+            .light_buffers
+            .iter()
+            .enumerate()
+            .map(|(k, b)| b.as_ref().unwrap_or_else(|| panic!("no buffer for light {k}, {} entries", bvh.leaves.len())))
+            .collect();
+        let entries = bvh.leaves.len() as u32;
+        let (mut listed, mut crowded, mut blocked, mut through) = (0, 0, 0, 0);
+        let mut last = LastBlocker::default();
+        for i in 0..60_000u32 {
+            let k = (i / 64) as usize % lights.len();
+            let at = lights[k];
+            if i % 64 == 0 {
+                last = LastBlocker::default();
+            }
+            let from = match i % 8 {
+                // On an edge or a corner of the cube of faces, as nearly as f32 goes.
+                0 => {
+                    let d = 1.0 + 10.0 * r.next_f32();
+                    let s = |r: &mut Rng| if r.below(2) == 0 { -d } else { d };
+                    let mut w = Vec3::new(s(&mut r), s(&mut r), s(&mut r));
+                    w[r.below(3) as usize] *= 1.0 + (r.next_f32() - 0.5) * 1e-6;
+                    at + w
+                }
+                // Near the crowd, so the crowded cells are met.
+                1 | 2 => Vec3::new(34.0, 0.0, 0.0) + v(&mut r, 6.0),
+                _ => v(&mut r, 30.0),
+            };
+            let ray = Ray::new(from, at - from);
+            let t_max = (at - from).length();
+            match buffers[k].cell_of(from) {
+                Some(list) if !list.is_empty() => listed += 1,
+                Some(_) => {}
+                None => crowded += 1,
+            }
+            let want = brute.transmittance(&ray, t_max);
+            assert_eq!(bvh.transmittance_towards(k, &ray, t_max, &mut last), want, "seed {seed}, ray {i}");
+            blocked += (want == 0.0) as u32;
+            through += (want > 0.0 && want < 1.0) as u32;
+            if i % 7 == 0 {
+                last = LastBlocker(r.below(entries));
+            }
+        }
+        assert!(listed > 20_000 && crowded > 1000, "seed {seed}: {listed} listed, {crowded} crowded");
+        assert!(blocked > 5000 && through > 1000, "seed {seed}: {blocked} blocked, {through} through glass");
+    }
+}
+
+/// However many lights a scene has, at most [`light_buffer::MAX_LIGHTS`] get a buffer:
+/// lights cost time, not memory.
+#[test]
+fn light_buffers_are_bounded_in_number() {
+    let mut scene = random_scene(9, 300);
+    let without = World::new(&scene, AccelKind::Bvh).memory_bytes();
+    for k in 0..40 {
+        scene.add_light(crate::light::PointLight::new(Vec3::new(k as f32, 30.0, 0.0), Color::ONE));
+    }
+    let world = World::new(&scene, AccelKind::Bvh);
+    assert_eq!(world.light_buffers.iter().flatten().count(), light_buffer::MAX_LIGHTS);
+    assert!(world.memory_bytes() > without);
+    // A directional light has no position to centre one on.
+    let mut scene = random_scene(9, 300);
+    scene.add_light(crate::light::DirectionalLight::new(Vec3::NEG_Y, Color::ONE));
+    assert!(World::new(&scene, AccelKind::Bvh).light_buffers.iter().all(Option::is_none));
+}

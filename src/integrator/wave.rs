@@ -144,7 +144,7 @@ impl Wave {
         if let Some(done) = run {
             merge_box(boxes, done);
         }
-        for light in &world.scene().lights {
+        for (index, light) in world.scene().lights.iter().enumerate() {
             // One-sided shading may send a shadow ray from a surface's back through the
             // surface itself, which the culling assumes it does not.
             // A light without a position (directional) is tested against everything.
@@ -162,7 +162,7 @@ impl Wave {
                     }
                     live |= ((*falloff > 0.0) as u32) << lane;
                 }
-                let visible = visible_lanes(world, blockers, from, &seen, live, &mut last);
+                let visible = visible_lanes(world, index, blockers, from, &seen, live, &mut last);
                 for (lane, &k) in nodes.iter().enumerate() {
                     if live >> lane & 1 == 0 {
                         continue; // the light is behind the surface
@@ -278,6 +278,7 @@ fn find_hits(world: &World, rays: &mut [Found], seen: &mut Vec<u32>) {
 #[inline(always)]
 fn visible_lanes(
     world: &World,
+    light: usize,
     blockers: Option<&[u32]>,
     from: &[[f32; 8]; 3],
     seen: &Towards8,
@@ -292,7 +293,7 @@ fn visible_lanes(
             let mut visible = [0.0; 8];
             for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
                 let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
-                visible[lane] = world.transmittance_hinted(&shadow, seen.distance[lane], last);
+                visible[lane] = world.transmittance_towards(light, &shadow, seen.distance[lane], last);
             }
             visible
         }

@@ -1,0 +1,305 @@
+//! Light buffers (Haines and Greenberg, 1986): for a light with a position, a cube of
+//! direction cells around it, each listing the leaf entries of the tree that may lie in
+//! its directions, nearest the light first. A shadow ray from a point towards the light
+//! can meet only what lies in the directions of that point as seen from the light, and
+//! nearer the light than the point: it tests that cell's short list, stopping at the
+//! first entry farther than the point, in place of a walk from the root of the tree.
+//!
+//! Every entry that may lie along the segment is in the list (the cells an entry's box
+//! covers are worked out conservatively), and each is tested as the walk tests it
+//! ([`World::leaf_stops`]), so the answer is the walk's.
+
+use super::{LastBlocker, World};
+use crate::math::{Aabb, Ray, Vec3};
+
+/// The cube of cells round one light.
+#[derive(Debug)]
+pub(super) struct LightBuffer {
+    at: Vec3,
+    /// Cells along a face's side.
+    n: usize,
+    /// Per face of the cube, where its cells start in `cells` ([`EMPTY_FACE`] where no
+    /// entry lies in its directions: it has no cells).
+    faces: [u32; 6],
+    /// Per cell of the faces that have them, row by row: where its list starts in
+    /// `entries` (above [`LEN_BITS`]) and how long it is (below), [`CROWDED`] where more
+    /// than [`MAX_LIST`] entries lie in its directions: its rays walk the tree instead.
+    cells: Vec<u32>,
+    /// The lists: (leaf entry, its box's distance from the light).
+    entries: Vec<(u32, f32)>,
+}
+
+/// Entries a cell lists at most: past that, a walk of the tree is the quicker test.
+/// Lists this long still beat the walk, as most rays stop at the first entry farther
+/// from the light than their origin (sphereflake, bench/tree_nff.py: docs/performance.md).
+const MAX_LIST: u32 = 64;
+
+/// A cell's length takes the low bits of its word, its start the others.
+const LEN_BITS: u32 = 7;
+const LEN_MASK: u32 = (1 << LEN_BITS) - 1;
+const CROWDED: u32 = LEN_MASK;
+const _: () = assert!(MAX_LIST < CROWDED);
+
+const EMPTY_FACE: u32 = u32::MAX;
+
+/// Entries over all cells a light's buffer may hold (eight bytes each, 4 MiB): a light
+/// whose buffer would hold more has none. With [`MAX_LIGHTS`], memory for buffers stays
+/// under 40 MiB however many lights a scene has.
+const MAX_ENTRIES: usize = 1 << 19;
+const _: () = assert!(MAX_ENTRIES < 1 << (32 - LEN_BITS));
+
+/// Lights that get a buffer at most (the first with a position); the others' shadow
+/// rays walk the tree.
+pub(super) const MAX_LIGHTS: usize = 8;
+
+/// Relative margin on the distances compared, so that rounding never drops an entry.
+const SLACK: f32 = 1e-4;
+
+/// Margin on a face's coordinates (which run from -1 to 1), likewise.
+const EDGE: f32 = 1e-4;
+
+impl LightBuffer {
+    /// Cells along a face's side for a tree of `entries` leaf entries: none for so
+    /// few that a walk is short.
+    pub(super) fn side(entries: usize) -> usize {
+        if entries < 64 {
+            return 0;
+        }
+        ((4.0 * (entries as f64).sqrt()) as usize).next_power_of_two().clamp(16, 128)
+    }
+
+    /// The buffer of a light at `at` over leaf entries with boxes `boxes`, `n` cells a
+    /// side; `None` where it would hold more than [`MAX_ENTRIES`] or where more of its
+    /// cells would be crowded than listed.
+    pub(super) fn build(at: Vec3, boxes: &[Aabb], n: usize) -> Option<LightBuffer> {
+        // Entries nearest the light first, so each cell's list comes out in that order.
+        let mut order: Vec<(f32, u32)> =
+            boxes.iter().enumerate().map(|(i, b)| (near_distance(at, b), i as u32)).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        // Coarser where finer cells would list too much (objects round the light, in many
+        // of its directions); crowded cells only get more so.
+        let mut n = n;
+        loop {
+            match LightBuffer::with_cells(at, boxes, &order, n) {
+                Err(Full) if n > 16 => n /= 2,
+                Err(_) => return None,
+                Ok(buffer) => return Some(buffer),
+            }
+        }
+    }
+
+    /// [`LightBuffer::build`] with `n` cells a side, given the entries in `order`.
+    fn with_cells(at: Vec3, boxes: &[Aabb], order: &[(f32, u32)], n: usize) -> Result<LightBuffer, Unfit> {
+        // Only the faces something lies in front of get cells.
+        let mut faces = [EMPTY_FACE; 6];
+        for &(_, i) in order {
+            each_range(at, &boxes[i as usize], n, |face, _, _| faces[face] = 0);
+        }
+        let mut used = 0;
+        for face in faces.iter_mut().filter(|f| **f == 0) {
+            (*face, used) = (used, used + (n * n) as u32);
+        }
+        let cell_of = |face: usize, u: usize, v: usize| faces[face] as usize + u * n + v;
+        // Count each cell's entries, then give each its place.
+        let mut counts = vec![0u32; used as usize];
+        for &(_, i) in order {
+            each_cell(at, &boxes[i as usize], n, |face, u, v| counts[cell_of(face, u, v)] += 1);
+        }
+        let mut sum = 0usize;
+        let cells: Vec<u32> = counts
+            .iter()
+            .map(|&count| match count > MAX_LIST {
+                true => (sum as u32) << LEN_BITS | CROWDED,
+                false => {
+                    let start = sum as u32;
+                    sum += count as usize;
+                    start << LEN_BITS
+                }
+            })
+            .collect();
+        // Too many entries, or too many crowded cells for the buffer to pay.
+        let crowded = cells.iter().filter(|&&c| c & LEN_MASK == CROWDED).count();
+        let listed = counts.iter().filter(|&&c| c != 0).count() - crowded;
+        if sum > MAX_ENTRIES {
+            return Err(Full);
+        }
+        if crowded > listed {
+            return Err(Unfit::Crowded);
+        }
+        let mut cells = cells;
+        let mut entries = vec![(0u32, 0f32); sum];
+        for &(near, i) in order {
+            each_cell(at, &boxes[i as usize], n, |face, u, v| {
+                let cell = &mut cells[cell_of(face, u, v)];
+                if *cell & LEN_MASK != CROWDED {
+                    entries[((*cell >> LEN_BITS) + (*cell & LEN_MASK)) as usize] = (i, near);
+                    *cell += 1;
+                }
+            });
+        }
+        Ok(LightBuffer { at, n, faces, cells, entries })
+    }
+
+    pub(super) fn memory_bytes(&self) -> usize {
+        self.cells.capacity() * 4 + self.entries.capacity() * 8
+    }
+
+    /// The list of the cell holding the direction from the light to `p`; `None` where
+    /// the cell is crowded or there is no direction (`p` at the light, or not finite).
+    #[inline(always)]
+    pub(super) fn cell_of(&self, p: Vec3) -> Option<&[(u32, f32)]> {
+        let w = p - self.at;
+        let a = w.abs();
+        let (face, z, u, v) = if a.x >= a.y && a.x >= a.z {
+            (usize::from(w.x < 0.0), a.x, w.y, w.z)
+        } else if a.y >= a.z {
+            (2 + usize::from(w.y < 0.0), a.y, w.x, w.z)
+        } else {
+            (4 + usize::from(w.z < 0.0), a.z, w.x, w.y)
+        };
+        if !(z > 0.0 && z.is_finite()) {
+            return None;
+        }
+        let base = self.faces[face];
+        if base == EMPTY_FACE {
+            return Some(&[]);
+        }
+        let n = self.n;
+        let scale = 0.5 * n as f32 / z;
+        let cell = |s: f32| ((s * scale + 0.5 * n as f32) as usize).min(n - 1);
+        let word = self.cells[base as usize + cell(u) * n + cell(v)];
+        let (start, len) = ((word >> LEN_BITS) as usize, word & LEN_MASK);
+        (len != CROWDED).then(|| &self.entries[start..start + len as usize])
+    }
+}
+
+/// Why a buffer was not made with so many cells.
+enum Unfit {
+    /// It would hold more than [`MAX_ENTRIES`].
+    Full,
+    /// More of its cells would be crowded than listed.
+    Crowded,
+}
+use Unfit::Full;
+
+/// The distance from `p` to the nearest point of `b` (0 inside it).
+fn near_distance(p: Vec3, b: &Aabb) -> f32 {
+    (b.min - p).max(p - b.max).max(Vec3::ZERO).length()
+}
+
+/// Calls `f` with each cell (face, row, column) whose directions from `at` may meet
+/// box `b`.
+fn each_cell(at: Vec3, b: &Aabb, n: usize, mut f: impl FnMut(usize, usize, usize)) {
+    each_range(at, b, n, |face, us, vs| {
+        for u in us {
+            for v in vs.clone() {
+                f(face, u, v);
+            }
+        }
+    });
+}
+
+/// Calls `f` with each face whose directions from `at` may meet box `b`, and the
+/// ranges of rows and columns of cells there that may.
+fn each_range(
+    at: Vec3,
+    b: &Aabb,
+    n: usize,
+    mut f: impl FnMut(usize, std::ops::RangeInclusive<usize>, std::ops::RangeInclusive<usize>),
+) {
+    let (lo, hi) = (b.min - at, b.max - at);
+    let unbounded = !(lo.is_finite() && hi.is_finite());
+    for face in 0..6 {
+        if unbounded {
+            // In every cell.
+            f(face, 0..=n - 1, 0..=n - 1);
+            continue;
+        }
+        let axis = face / 2;
+        let (ua, va) = [(1, 2), (0, 2), (0, 1)][axis];
+        // How far along the face's axis the box reaches, facing that way.
+        let (z0, z1) = if face % 2 == 0 { (lo[axis], hi[axis]) } else { (-hi[axis], -lo[axis]) };
+        if !(z1 > 0.0) {
+            continue;
+        }
+        // Over the box's points in front of the light along this axis (0 < z <= z1),
+        // the range of x / z for x in [x0, x1]: the extremes come at the nearest or
+        // farthest z, unbounded where the box reaches the light's plane.
+        let range = |x0: f32, x1: f32| {
+            let min = if x0 >= 0.0 {
+                x0 / z1
+            } else if z0 > 0.0 {
+                x0 / z0
+            } else {
+                f32::NEG_INFINITY
+            };
+            let max = if x1 <= 0.0 {
+                x1 / z1
+            } else if z0 > 0.0 {
+                x1 / z0
+            } else {
+                f32::INFINITY
+            };
+            let cell = |s: f32| (((s.clamp(-1.0, 1.0) + 1.0) * 0.5 * n as f32) as usize).min(n - 1);
+            cell(min - EDGE)..=cell(max + EDGE)
+        };
+        f(face, range(lo[ua], hi[ua]), range(lo[va], hi[va]));
+    }
+}
+
+impl World<'_> {
+    /// [`World::transmittance_hinted`] for a shadow ray towards light `light` (its index
+    /// in the scene), through that light's buffer where it has one.
+    #[inline]
+    #[allow(unsafe_code)]
+    pub fn transmittance_towards(&self, light: usize, ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
+        let Some(Some(buffer)) = self.light_buffers.get(light) else {
+            return self.transmittance_hinted(ray, t_max, blocker);
+        };
+        if !(ray.origin.is_finite() && ray.dir.is_finite()) {
+            return self.transmittance_hinted(ray, t_max, blocker);
+        }
+        let Some(list) = buffer.cell_of(ray.origin) else {
+            return self.transmittance_hinted(ray, t_max, blocker);
+        };
+        if blocker.0 != u32::MAX {
+            let mut light = 1.0f64;
+            if self.leaf_stops(blocker.0 as usize, ray, t_max, &mut light) {
+                return 0.0;
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only where the processor has AVX2.
+            return unsafe { self.list_avx2(list, ray, t_max, blocker) };
+        }
+        self.list(list, ray, t_max, blocker)
+    }
+
+    /// The entries of a cell's `list` nearer the light than the ray's origin, against
+    /// the ray, until one stops the light.
+    #[inline(always)]
+    fn list(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
+        let limit = t_max * (1.0 + SLACK);
+        let mut light = 1.0f64;
+        for &(at, near) in list {
+            if near > limit {
+                break;
+            }
+            if self.leaf_stops(at as usize, ray, t_max, &mut light) {
+                blocker.0 = at;
+                return 0.0;
+            }
+        }
+        light as f32
+    }
+
+    /// [`World::list`] built for AVX2, so that the sphere packs' AVX test is inlined as
+    /// in the walk's leaves (sphereflake 1-2 % faster than a call per pack:
+    /// docs/performance.md, "Light buffers"). `list` is the portable path.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn list_avx2(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
+        self.list(list, ray, t_max, blocker)
+    }
+}
