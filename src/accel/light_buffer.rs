@@ -251,17 +251,23 @@ impl World<'_> {
     /// [`World::transmittance_hinted`] for a shadow ray towards light `light` (its index
     /// in the scene), through that light's buffer where it has one.
     #[inline]
-    #[allow(unsafe_code)]
     pub fn transmittance_towards(&self, light: usize, ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
-        let Some(Some(buffer)) = self.light_buffers.get(light) else {
-            return self.transmittance_hinted(ray, t_max, blocker);
+        // One call of each path, so that the walk is inlined here once.
+        let list = match self.light_buffers.get(light) {
+            Some(Some(buffer)) if ray.origin.is_finite() && ray.dir.is_finite() => buffer.cell_of(ray.origin),
+            _ => None,
         };
-        if !(ray.origin.is_finite() && ray.dir.is_finite()) {
-            return self.transmittance_hinted(ray, t_max, blocker);
+        match list {
+            Some(list) => self.transmittance_listed(list, ray, t_max, blocker),
+            None => self.transmittance_hinted(ray, t_max, blocker),
         }
-        let Some(list) = buffer.cell_of(ray.origin) else {
-            return self.transmittance_hinted(ray, t_max, blocker);
-        };
+    }
+
+    /// [`World::transmittance_hinted`] over the entries of a light buffer's cell `list`:
+    /// the last blocker first, then the list.
+    #[allow(unsafe_code)]
+    #[inline]
+    fn transmittance_listed(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
         if blocker.0 != u32::MAX {
             let mut light = 1.0f64;
             if self.leaf_stops(blocker.0 as usize, ray, t_max, &mut light) {

@@ -456,7 +456,9 @@ pub enum Transmission {
 /// original passed the index as an integer and bent exiting rays as if entering again).
 /// Past the critical angle the ray is reflected instead. With `ior` 1 the direction is
 /// kept exactly: plain transparency.
-#[inline]
+///
+/// Inlined always, as [`crate::texture::ImageMap::sample`] is, for the same reason.
+#[inline(always)]
 pub fn transmitted_ray(ray: &Ray, surface: &Surface, ior: f32) -> (Ray, Transmission) {
     let entering = ray.dir.dot(surface.normal) < 0.0;
     let n: Vec3 = if entering { surface.normal } else { -surface.normal };

@@ -140,7 +140,9 @@ impl ImageMap {
     /// a sphere the last column blends into the first and the seam does not show; `v`
     /// clamps, since the top and bottom rows are the poles, not neighbours. Any input,
     /// NaN included, lands inside the map.
-    #[inline]
+    // Inlined always: with `#[inline]` alone, the room's shading stopped inlining it
+    // when other code grew (4 % of a room render: docs/performance.md, "Light buffers").
+    #[inline(always)]
     pub fn sample(&self, uv: Vec2) -> Color {
         let (w, h) = (self.width as usize, self.height as usize);
 
