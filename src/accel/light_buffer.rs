@@ -10,6 +10,7 @@
 //! ([`World::leaf_stops`]), so the answer is the walk's.
 
 use super::{LastBlocker, World};
+use crate::light::Light;
 use crate::math::{Aabb, Ray, Vec3};
 
 /// The cube of cells round one light.
@@ -59,9 +60,29 @@ const SLACK: f32 = 1e-4;
 const EDGE: f32 = 1e-4;
 
 impl LightBuffer {
+    /// Per light of `lights`, its buffer over leaf entries with boxes `boxes`, where it
+    /// has one: the first [`MAX_LIGHTS`] with a position may, built in parallel.
+    /// `WHITTED_LIGHT_BUFFERS=0` in the environment goes without, to compare.
+    pub(super) fn for_lights(lights: &[Light], boxes: &[Aabb]) -> Vec<Option<LightBuffer>> {
+        use rayon::prelude::*;
+        let off = std::env::var_os("WHITTED_LIGHT_BUFFERS").is_some_and(|v| v == "0");
+        let n = if off { 0 } else { LightBuffer::side(boxes.len()) };
+        let placed: Vec<usize> =
+            (0..lights.len()).filter(|&k| lights[k].position().is_some()).take(MAX_LIGHTS).collect();
+        let built: Vec<_> = match n {
+            0 => vec![],
+            _ => placed.par_iter().map(|&k| LightBuffer::build(lights[k].position()?, boxes, n)).collect(),
+        };
+        let mut buffers: Vec<_> = lights.iter().map(|_| None).collect();
+        for (&k, buffer) in placed.iter().zip(built) {
+            buffers[k] = buffer;
+        }
+        buffers
+    }
+
     /// Cells along a face's side for a tree of `entries` leaf entries: none for so
     /// few that a walk is short.
-    pub(super) fn side(entries: usize) -> usize {
+    fn side(entries: usize) -> usize {
         if entries < 64 {
             return 0;
         }

@@ -292,28 +292,10 @@ impl<'s> World<'s> {
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
         let leaves = crate::pages::on_huge_pages(leaves);
         let avx2 = lanes::avx2();
-        // Light buffers for the lights with a position, over the tree's leaf entries
-        // (`WHITTED_LIGHT_BUFFERS=0` in the environment goes without, to compare).
-        let cells = match std::env::var_os("WHITTED_LIGHT_BUFFERS").is_some_and(|v| v == "0") || flat {
-            true => 0,
-            false => light_buffer::LightBuffer::side(boxes.len()),
+        let light_buffers = match flat {
+            true => scene.lights.iter().map(|_| None).collect(),
+            false => light_buffer::LightBuffer::for_lights(&scene.lights, &boxes),
         };
-        use rayon::prelude::*;
-        let placed: Vec<usize> = (0..scene.lights.len()).filter(|&k| scene.lights[k].position().is_some()).collect();
-        let placed = &placed[..placed.len().min(light_buffer::MAX_LIGHTS)];
-        let mut light_buffers: Vec<_> = scene.lights.iter().map(|_| None).collect();
-        if cells > 0 {
-            let built: Vec<_> = placed
-                .par_iter()
-                .map(|&k| {
-                    let at = scene.lights[k].position().expect("placed");
-                    light_buffer::LightBuffer::build(at, &boxes, cells)
-                })
-                .collect();
-            for (&k, buffer) in placed.iter().zip(built) {
-                light_buffers[k] = buffer;
-            }
-        }
         World {
             scene,
             kind,

@@ -431,6 +431,16 @@ fn rays_in_batches_match_one_by_one() {
     }
 }
 
+/// `count` spheres added to a [`random_scene`] in a 12-unit box, radii from `min` to
+/// `min + spread`, one in four of glass.
+fn add_spheres(scene: &mut Scene, r: &mut Rng, count: usize, (min, spread): (f32, f32)) {
+    let (opaque, glass) = (crate::scene::MaterialId(0), crate::scene::MaterialId(1));
+    for i in 0..count {
+        let s = Sphere::new(v(r, 12.0), min + spread * r.next_f32());
+        scene.add(s, if i % 4 == 0 { glass } else { opaque });
+    }
+}
+
 /// Shadow rays that try first the leaf entry that blocked the ray before (as the wave
 /// carries a [`LastBlocker`] from ray to ray), or an entry picked at random, get the
 /// answers of testing every object: opaque and glass objects of every kind, spheres in
@@ -440,11 +450,7 @@ fn a_shadow_rays_last_blocker_changes_no_answer() {
     for (seed, width) in [(3u64, 4), (4, 8)] {
         let mut scene = random_scene(seed, 150);
         let mut r = Rng::new(500 + seed);
-        let (opaque, glass) = (crate::scene::MaterialId(0), crate::scene::MaterialId(1));
-        for i in 0..400 {
-            let s = Sphere::new(v(&mut r, 12.0), 0.2 + r.next_f32());
-            scene.add(s, if i % 4 == 0 { glass } else { opaque });
-        }
+        add_spheres(&mut scene, &mut r, 400, (0.2, 1.0));
         let (bvh, brute) =
             (World::with_width(&scene, AccelKind::Bvh, Some(width)), World::new(&scene, AccelKind::None));
         let entries = bvh.leaves.len() as u32;
@@ -493,11 +499,8 @@ fn shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
     for (seed, width) in [(5u64, 4), (6, 8)] {
         let mut scene = random_scene(seed, 150);
         let mut r = Rng::new(700 + seed);
+        add_spheres(&mut scene, &mut r, 600, (0.05, 0.5));
         let (opaque, glass) = (crate::scene::MaterialId(0), crate::scene::MaterialId(1));
-        for i in 0..600 {
-            let s = Sphere::new(v(&mut r, 12.0), 0.05 + 0.5 * r.next_f32());
-            scene.add(s, if i % 4 == 0 { glass } else { opaque });
-        }
         // A crowd: many small spheres in a narrow cone of one light's directions.
         for i in 0..400 {
             scene.add(

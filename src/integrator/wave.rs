@@ -271,10 +271,11 @@ fn find_hits(world: &World, rays: &mut [Found], seen: &mut Vec<u32>) {
     }
 }
 
-/// What the shadow rays from eight points `from` towards a light (`seen`) let
-/// through, in the lanes `live` (0 in the others): tested together against objects
-/// `blockers` only where given ([`World::may_shadow`]), else against the whole world,
-/// each trying first what blocked the light's last ray (`last`, carried on).
+/// What the shadow rays from eight points `from` towards light `light` (its index;
+/// `seen`) let through, in the lanes `live` (0 in the others): tested together against
+/// objects `blockers` only where given ([`World::may_shadow`]), else against the whole
+/// world (through the light's buffer where it has one), each trying first what blocked
+/// the light's last ray (`last`, carried on).
 #[inline(always)]
 fn visible_lanes(
     world: &World,
