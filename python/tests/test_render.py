@@ -187,12 +187,20 @@ def test_ctrl_c_stops_a_long_render_within_a_second():
     timer = threading.Timer(0.5, interrupt)
     timer.start()
     start = time.perf_counter()
-    with pytest.raises(KeyboardInterrupt):
+    raised = False
+    try:
         whitted.render(scene)
+    except KeyboardInterrupt:
+        raised = True
     stopped = time.perf_counter()
     timer.join()
-    assert sent, "the render ended before the interrupt"
-    assert stopped - sent[0] < 1.0, f"took {stopped - sent[0]:.2f} s to stop"
+    # Said in full when it fails: one CI run (2026-12-05) saw the render end without
+    # raising, which no other run has; the figures tell where the interrupt went.
+    sent_at = f"{sent[0] - start:.2f} s" if sent else "never"
+    when = f"interrupt sent at {sent_at}, render returned at {stopped - start:.2f} s"
+    assert sent, f"the render ended before the interrupt ({when})"
+    assert raised, f"the render did not raise KeyboardInterrupt ({when})"
+    assert stopped - sent[0] < 1.0, f"took {stopped - sent[0]:.2f} s to stop ({when})"
     assert stopped - start < 5.0
     # The renderer is usable afterwards.
     assert whitted.render(room()).shape == (48, 64, 3)
