@@ -9,7 +9,7 @@
 //! covers are worked out conservatively), and each is tested as the walk tests it
 //! ([`World::leaf_stops`]), so the answer is the walk's.
 
-use super::{LastBlocker, World};
+use super::{Inline, LastBlocker, LeafItem, NONE, World};
 use crate::light::Light;
 use crate::math::{Aabb, Ray, Vec3};
 
@@ -192,7 +192,86 @@ impl LightBuffer {
         let (start, len) = ((word >> LEN_BITS) as usize, word & LEN_MASK);
         (len != CROWDED).then(|| &self.entries[start..start + len as usize])
     }
+
+    /// [`LightBuffer::cell_of`] for eight points at once, as words: the cell's word
+    /// (start and length, or [`CROWDED`]), [`NO_CELL`] where there is no direction, or
+    /// [`NO_ENTRIES`] where no entry lies in its face's directions. Written on plain
+    /// arrays, each lane doing `cell_of`'s operations in its order (so the same cells),
+    /// for the compiler to work out the lanes together; the words are then read one
+    /// after another, so their cache misses overlap rather than each waiting on the last
+    /// lane's list.
+    #[inline(always)]
+    pub(super) fn words_of_lanes(&self, from: &[[f32; 8]; 3]) -> [u32; 8] {
+        let (n, half, top) = (self.n as u32, 0.5 * self.n as f32, (self.n - 1) as f32);
+        let (mut face, mut offset) = ([0u32; 8], [0u32; 8]);
+        let mut valid = [false; 8];
+        for lane in 0..8 {
+            let w = [from[0][lane] - self.at.x, from[1][lane] - self.at.y, from[2][lane] - self.at.z];
+            let a = w.map(f32::abs);
+            // Selections rather than branches, so that the lanes go together.
+            let x_major = a[0] >= a[1] && a[0] >= a[2];
+            let y_major = !x_major && a[1] >= a[2];
+            let z = if x_major {
+                a[0]
+            } else if y_major {
+                a[1]
+            } else {
+                a[2]
+            };
+            let along = if x_major {
+                w[0]
+            } else if y_major {
+                w[1]
+            } else {
+                w[2]
+            };
+            let u = if x_major { w[1] } else { w[0] };
+            let v = if x_major || y_major { w[2] } else { w[1] };
+            let first = if x_major {
+                0
+            } else if y_major {
+                2
+            } else {
+                4
+            };
+            face[lane] = first + u32::from(along < 0.0);
+            valid[lane] = z > 0.0 && z < f32::INFINITY;
+            let scale = half / z;
+            // As `cell_of`'s `as usize` and `min`: below 0 or NaN is 0, past the last is the last.
+            let cell = |s: f32| (s * scale + half).max(0.0).min(top) as u32;
+            offset[lane] = cell(u) * n + cell(v);
+        }
+        std::array::from_fn(|lane| {
+            let base = self.faces[face[lane] as usize];
+            match (valid[lane], base) {
+                (false, _) => NO_CELL,
+                (true, EMPTY_FACE) => NO_ENTRIES,
+                (true, base) => self.cells[base as usize + offset[lane] as usize],
+            }
+        })
+    }
+
+    /// The list a word of [`LightBuffer::words_of_lanes`] stands for, as `cell_of`
+    /// gives it.
+    #[inline(always)]
+    pub(super) fn list_of(&self, word: u32) -> Option<&[(u32, f32)]> {
+        match word {
+            NO_CELL => None,
+            NO_ENTRIES => Some(&[]),
+            word => {
+                let (start, len) = ((word >> LEN_BITS) as usize, word & LEN_MASK);
+                (len != CROWDED).then(|| &self.entries[start..start + len as usize])
+            }
+        }
+    }
 }
+
+/// Words of [`LightBuffer::words_of_lanes`] that are not cells': no direction, and a
+/// face without entries (a cell's word has a length of at most [`CROWDED`], and its
+/// start is below [`MAX_ENTRIES`], so it is neither).
+const NO_CELL: u32 = u32::MAX;
+const NO_ENTRIES: u32 = u32::MAX - 1;
+const _: () = assert!(((MAX_ENTRIES as u32) << LEN_BITS | CROWDED) < NO_ENTRIES);
 
 /// Why a buffer was not made with so many cells.
 enum Unfit {
@@ -279,16 +358,68 @@ impl World<'_> {
             _ => None,
         };
         match list {
-            Some(list) => self.transmittance_listed(list, ray, t_max, blocker),
+            Some(list) => self.transmittance_listed(list, ray, t_max, blocker, NONE),
             None => self.transmittance_hinted(ray, t_max, blocker),
         }
+    }
+
+    /// [`World::transmittance_towards`] for eight shadow rays given lane by lane
+    /// (origins `from`, unit directions `dirs`, lengths `t_max`), in the lanes `live`
+    /// (the others are 0), one after another with `blocker` carried on: the same answers,
+    /// with the lanes' cells found together ([`LightBuffer::words_of_lanes`]). Each
+    /// lane's ray leaves object `leaving[lane]` on the light's side of its surface (or
+    /// [`NONE`], not known): a flat object is not tested against the rays that leave it,
+    /// as they cannot meet it (the SPD floors: a quarter of the sphereflake's tests).
+    #[inline]
+    pub fn transmittance_towards_lanes(
+        &self,
+        light: usize,
+        from: &[[f32; 8]; 3],
+        dirs: &[[f32; 8]; 3],
+        t_max: [f32; 8],
+        live: u32,
+        leaving: [u32; 8],
+        blocker: &mut LastBlocker,
+    ) -> [f32; 8] {
+        let lane_of = |v: &[[f32; 8]; 3], lane: usize| Vec3::new(v[0][lane], v[1][lane], v[2][lane]);
+        let mut visible = [0.0; 8];
+        let buffer = match self.light_buffers.get(light) {
+            Some(Some(buffer)) => buffer,
+            _ => {
+                for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                    let ray = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
+                    visible[lane] = self.transmittance_hinted(&ray, t_max[lane], blocker);
+                }
+                return visible;
+            }
+        };
+        let words = buffer.words_of_lanes(from);
+        for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+            let ray = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
+            let list = match ray.origin.is_finite() && ray.dir.is_finite() {
+                true => buffer.list_of(words[lane]),
+                false => None,
+            };
+            visible[lane] = match list {
+                Some(list) => self.transmittance_listed(list, &ray, t_max[lane], blocker, leaving[lane]),
+                None => self.transmittance_hinted(&ray, t_max[lane], blocker),
+            };
+        }
+        visible
     }
 
     /// [`World::transmittance_hinted`] over the entries of a light buffer's cell `list`:
     /// the last blocker first, then the list.
     #[allow(unsafe_code)]
     #[inline]
-    fn transmittance_listed(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
+    fn transmittance_listed(
+        &self,
+        list: &[(u32, f32)],
+        ray: &Ray,
+        t_max: f32,
+        blocker: &mut LastBlocker,
+        leaving: u32,
+    ) -> f32 {
         if blocker.0 != u32::MAX {
             let mut light = 1.0f64;
             if self.leaf_stops(blocker.0 as usize, ray, t_max, &mut light) {
@@ -298,20 +429,23 @@ impl World<'_> {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is set only where the processor has AVX2.
-            return unsafe { self.list_avx2(list, ray, t_max, blocker) };
+            return unsafe { self.list_avx2(list, ray, t_max, blocker, leaving) };
         }
-        self.list(list, ray, t_max, blocker)
+        self.list(list, ray, t_max, blocker, leaving)
     }
 
     /// The entries of a cell's `list` nearer the light than the ray's origin, against
     /// the ray, until one stops the light.
     #[inline(always)]
-    fn list(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
+    fn list(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker, leaving: u32) -> f32 {
         let limit = t_max * (1.0 + SLACK);
         let mut light = 1.0f64;
         for &(at, near) in list {
             if near > limit {
                 break;
+            }
+            if self.flat_and(at as usize, leaving) {
+                continue;
             }
             if self.leaf_stops(at as usize, ray, t_max, &mut light) {
                 blocker.0 = at;
@@ -326,7 +460,14 @@ impl World<'_> {
     /// docs/performance.md, "Light buffers"). `list` is the portable path.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn list_avx2(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
-        self.list(list, ray, t_max, blocker)
+    fn list_avx2(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker, leaving: u32) -> f32 {
+        self.list(list, ray, t_max, blocker, leaving)
+    }
+
+    /// Whether leaf entry `at` is flat object `object` (a quad or a triangle): a ray
+    /// that leaves its surface on the side of its light stays on that side of its plane.
+    #[inline(always)]
+    fn flat_and(&self, at: usize, object: u32) -> bool {
+        matches!(self.leaves[at], LeafItem::Inline(Inline::Quad(_) | Inline::Triangle(_), i) if i == object)
     }
 }

@@ -79,8 +79,9 @@ impl AccelKind {
     }
 }
 
-/// No object: the index of the best hit before there is one.
-const NONE: u32 = u32::MAX;
+/// No object: the index of the best hit before there is one, or of the object a
+/// shadow ray leaves where that is not known.
+pub const NONE: u32 = u32::MAX;
 
 /// The nearest hit so far and its object ([`NONE`] before any), field by field.
 #[derive(Clone, Copy)]

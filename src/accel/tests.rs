@@ -563,6 +563,71 @@ fn shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
     }
 }
 
+/// Eight shadow rays at once through the lights' buffers get the answers of testing
+/// every object, lane by lane: from anywhere, and from points just off quads and
+/// triangles on the light's side, which then are not tested against the object they
+/// leave. Each lane's cell is the one [`LightBuffer::cell_of`] finds.
+#[test]
+fn eight_shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
+    let mut scene = random_scene(11, 400);
+    let mut r = Rng::new(711);
+    add_spheres(&mut scene, &mut r, 600, (0.05, 0.5));
+    let lights = [Vec3::new(40.0, 0.5, 0.3), Vec3::new(-3.0, 25.0, 10.0), v(&mut r, 10.0)];
+    for &at in &lights {
+        scene.add_light(crate::light::PointLight::new(at, Color::ONE));
+    }
+    let (bvh, brute) = (World::new(&scene, AccelKind::Bvh), World::new(&scene, AccelKind::None));
+    let flat: Vec<u32> = (0..scene.objects.len() as u32)
+        .filter(|&i| matches!(scene.objects[i as usize].shape, Shape::Quad(_) | Shape::Triangle(_)))
+        .collect();
+    let (mut left, mut blocked) = (0, 0);
+    for group in 0..6000 {
+        let k = group % lights.len();
+        let at = lights[k];
+        let mut last = LastBlocker::default();
+        let (mut from, mut dirs, mut t_max, mut leaving) = ([[0f32; 8]; 3], [[0f32; 8]; 3], [0f32; 8], [NONE; 8]);
+        let live = r.below(256) as u32;
+        for lane in 0..8 {
+            let (p, object) = match r.below(3) {
+                0 => (v(&mut r, 30.0), NONE),
+                _ => {
+                    // Just off a flat object, on the light's side, as shading leaves it.
+                    let i = flat[r.below(flat.len() as u32) as usize];
+                    let (a, b) = (r.next_f32(), r.next_f32());
+                    let (p, n) = match scene.objects[i as usize].shape {
+                        Shape::Quad(q) => (q.corner + a * q.edge_u + b * q.edge_v, q.normal()),
+                        Shape::Triangle(t) => {
+                            let (a, b) = if a + b > 1.0 { (1.0 - a, 1.0 - b) } else { (a, b) };
+                            (t.v0 + a * (t.v1 - t.v0) + b * (t.v2 - t.v0), (t.v1 - t.v0).cross(t.v2 - t.v0).normalize())
+                        }
+                        _ => unreachable!(),
+                    };
+                    let side = if n.dot(at - p) < 0.0 { -n } else { n };
+                    (p + crate::math::surface_offset(p) * side, i)
+                }
+            };
+            let l = at - p;
+            for axis in 0..3 {
+                (from[axis][lane], dirs[axis][lane]) = (p[axis], (l / l.length())[axis]);
+            }
+            (t_max[lane], leaving[lane]) = (l.length(), object);
+        }
+        let buffer = bvh.light_buffers[k].as_ref().expect("a buffer");
+        let words = buffer.words_of_lanes(&from);
+        let got = bvh.transmittance_towards_lanes(k, &from, &dirs, t_max, live, leaving, &mut last);
+        for lane in 0..8 {
+            let origin = Vec3::new(from[0][lane], from[1][lane], from[2][lane]);
+            assert_eq!(buffer.list_of(words[lane]), buffer.cell_of(origin), "group {group}, lane {lane}");
+            let ray = Ray { origin, dir: Vec3::new(dirs[0][lane], dirs[1][lane], dirs[2][lane]) };
+            let want = if live >> lane & 1 == 0 { 0.0 } else { brute.transmittance(&ray, t_max[lane]) };
+            assert_eq!(got[lane], want, "group {group}, lane {lane}");
+            left += (live >> lane & 1 != 0 && leaving[lane] != NONE) as u32;
+            blocked += (want == 0.0 && live >> lane & 1 != 0) as u32;
+        }
+    }
+    assert!(left > 10_000 && blocked > 3000, "{left} rays leave flat objects, {blocked} blocked");
+}
+
 /// However many lights a scene has, at most [`light_buffer::MAX_LIGHTS`] get a buffer:
 /// lights cost time, not memory.
 #[test]

@@ -16,7 +16,7 @@
 //! rays, so a pixel's colour does not depend on which other pixels share its wave.
 
 use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, Towards8, lane_of, towards_light_lanes};
-use crate::accel::{LastBlocker, World};
+use crate::accel::{LastBlocker, NONE, World};
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
 
@@ -162,7 +162,12 @@ impl Wave {
                     }
                     live |= ((*falloff > 0.0) as u32) << lane;
                 }
-                let visible = visible_lanes(world, index, blockers, from, &seen, live, &mut last);
+                // The objects the rays leave, on the light's side where shading is two-sided.
+                let leaving: [u32; 8] = std::array::from_fn(|lane| match (nodes.get(lane), integrator.one_sided) {
+                    (Some(&k), false) => level[k as usize].1.map_or(NONE, |(_, i)| i),
+                    _ => NONE,
+                });
+                let visible = visible_lanes(world, index, blockers, from, &seen, live, leaving, &mut last);
                 for (lane, &k) in nodes.iter().enumerate() {
                     if live >> lane & 1 == 0 {
                         continue; // the light is behind the surface
@@ -284,6 +289,7 @@ fn visible_lanes(
     from: &[[f32; 8]; 3],
     seen: &Towards8,
     live: u32,
+    leaving: [u32; 8],
     last: &mut LastBlocker,
 ) -> [f32; 8] {
     match blockers {
@@ -291,12 +297,7 @@ fn visible_lanes(
         // One walk a lane, each as it is taken: with the last blocker tried first, this
         // beat gathering the rays first (sphereflake, docs/performance.md).
         None if !world.packs_shadow_rays() => {
-            let mut visible = [0.0; 8];
-            for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
-                let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
-                visible[lane] = world.transmittance_towards(light, &shadow, seen.distance[lane], last);
-            }
-            visible
+            world.transmittance_towards_lanes(light, from, &seen.l, seen.distance, live, leaving, last)
         }
         None => {
             // The live lanes' rays, side by side, then their answers back in lane.
