@@ -9,7 +9,7 @@
 //! covers are worked out conservatively), and each is tested as the walk tests it
 //! ([`World::leaf_stops`]), so the answer is the walk's.
 
-use super::{Inline, LastBlocker, LeafItem, NONE, World};
+use super::{Inline, LastBlocker, LeafItem, NONE, ShadowLanes, World};
 use crate::light::Light;
 use crate::math::{Aabb, Ray, Vec3};
 
@@ -363,24 +363,14 @@ impl World<'_> {
         }
     }
 
-    /// [`World::transmittance_towards`] for eight shadow rays given lane by lane
-    /// (origins `from`, unit directions `dirs`, lengths `t_max`), in the lanes `live`
-    /// (the others are 0), one after another with `blocker` carried on: the same answers,
-    /// with the lanes' cells found together ([`LightBuffer::words_of_lanes`]). Each
-    /// lane's ray leaves object `leaving[lane]` on the light's side of its surface (or
-    /// [`NONE`], not known): a flat object is not tested against the rays that leave it,
-    /// as they cannot meet it (the SPD floors: a quarter of the sphereflake's tests).
+    /// [`World::transmittance_towards`] for eight shadow rays, one after another with
+    /// `blocker` carried on: the same answers, with the lanes' cells found together
+    /// ([`LightBuffer::words_of_lanes`]). A flat object is not tested against the rays
+    /// that leave it (`rays.leaving`), as they cannot meet it (the SPD floors: a quarter
+    /// of the sphereflake's tests).
     #[inline]
-    pub fn transmittance_towards_lanes(
-        &self,
-        light: usize,
-        from: &[[f32; 8]; 3],
-        dirs: &[[f32; 8]; 3],
-        t_max: [f32; 8],
-        live: u32,
-        leaving: [u32; 8],
-        blocker: &mut LastBlocker,
-    ) -> [f32; 8] {
+    pub fn transmittance_towards_lanes(&self, light: usize, rays: &ShadowLanes, blocker: &mut LastBlocker) -> [f32; 8] {
+        let ShadowLanes { from, dirs, t_max, live, leaving } = *rays;
         let lane_of = |v: &[[f32; 8]; 3], lane: usize| Vec3::new(v[0][lane], v[1][lane], v[2][lane]);
         let mut visible = [0.0; 8];
         let buffer = match self.light_buffers.get(light) {

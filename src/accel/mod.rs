@@ -26,7 +26,7 @@ mod mesh_bvh;
 mod packet8;
 mod shadow;
 pub use lanes::Best8;
-pub use shadow::LastBlocker;
+pub use shadow::{LastBlocker, ShadowLanes};
 mod sphere4;
 mod sphere8;
 mod tri4;

@@ -10,6 +10,17 @@ use crate::math::Ray;
 #[derive(Clone, Copy, Debug)]
 pub struct LastBlocker(pub(super) u32);
 
+/// Eight shadow rays side by side: origins, unit directions and lengths lane by lane,
+/// the lanes to test (`live`; the others get 0), and the object each leaves, on its
+/// light's side ([`super::NONE`] where not known).
+pub struct ShadowLanes<'a> {
+    pub from: &'a [[f32; 8]; 3],
+    pub dirs: &'a [[f32; 8]; 3],
+    pub t_max: [f32; 8],
+    pub live: u32,
+    pub leaving: [u32; 8],
+}
+
 impl Default for LastBlocker {
     fn default() -> Self {
         LastBlocker(u32::MAX)

@@ -586,7 +586,7 @@ fn eight_shadow_rays_through_light_buffers_get_the_answers_of_testing_everything
         let at = lights[k];
         let mut last = LastBlocker::default();
         let (mut from, mut dirs, mut t_max, mut leaving) = ([[0f32; 8]; 3], [[0f32; 8]; 3], [0f32; 8], [NONE; 8]);
-        let live = r.below(256) as u32;
+        let live = r.below(256);
         for lane in 0..8 {
             let (p, object) = match r.below(3) {
                 0 => (v(&mut r, 30.0), NONE),
@@ -614,7 +614,8 @@ fn eight_shadow_rays_through_light_buffers_get_the_answers_of_testing_everything
         }
         let buffer = bvh.light_buffers[k].as_ref().expect("a buffer");
         let words = buffer.words_of_lanes(&from);
-        let got = bvh.transmittance_towards_lanes(k, &from, &dirs, t_max, live, leaving, &mut last);
+        let rays = ShadowLanes { from: &from, dirs: &dirs, t_max, live, leaving };
+        let got = bvh.transmittance_towards_lanes(k, &rays, &mut last);
         for lane in 0..8 {
             let origin = Vec3::new(from[0][lane], from[1][lane], from[2][lane]);
             assert_eq!(buffer.list_of(words[lane]), buffer.cell_of(origin), "group {group}, lane {lane}");

@@ -15,8 +15,8 @@
 //! only on its own sample, and each sample adds its colours in an order fixed by its own
 //! rays, so a pixel's colour does not depend on which other pixels share its wave.
 
-use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, Towards8, lane_of, towards_light_lanes};
-use crate::accel::{LastBlocker, NONE, World};
+use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, lane_of, towards_light_lanes};
+use crate::accel::{LastBlocker, NONE, ShadowLanes, World};
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
 
@@ -167,7 +167,8 @@ impl Wave {
                     (Some(&k), false) => level[k as usize].1.map_or(NONE, |(_, i)| i),
                     _ => NONE,
                 });
-                let visible = visible_lanes(world, index, blockers, from, &seen, live, leaving, &mut last);
+                let rays = ShadowLanes { from, dirs: &seen.l, t_max: seen.distance, live, leaving };
+                let visible = visible_lanes(world, index, blockers, &rays, &mut last);
                 for (lane, &k) in nodes.iter().enumerate() {
                     if live >> lane & 1 == 0 {
                         continue; // the light is behind the surface
@@ -276,8 +277,7 @@ fn find_hits(world: &World, rays: &mut [Found], seen: &mut Vec<u32>) {
     }
 }
 
-/// What the shadow rays from eight points `from` towards light `light` (its index;
-/// `seen`) let through, in the lanes `live` (0 in the others): tested together against
+/// What eight shadow rays towards light `light` (its index) let through: tested together against
 /// objects `blockers` only where given ([`World::may_shadow`]), else against the whole
 /// world (through the light's buffer where it has one), each trying first what blocked
 /// the light's last ray (`last`, carried on).
@@ -286,28 +286,24 @@ fn visible_lanes(
     world: &World,
     light: usize,
     blockers: Option<&[u32]>,
-    from: &[[f32; 8]; 3],
-    seen: &Towards8,
-    live: u32,
-    leaving: [u32; 8],
+    rays: &ShadowLanes,
     last: &mut LastBlocker,
 ) -> [f32; 8] {
+    let ShadowLanes { from, dirs, t_max, live, .. } = *rays;
     match blockers {
-        Some(ids) => world.transmittance_among_lanes(ids, from, &seen.l, seen.distance, live),
+        Some(ids) => world.transmittance_among_lanes(ids, from, dirs, t_max, live),
         // One walk a lane, each as it is taken: with the last blocker tried first, this
         // beat gathering the rays first (sphereflake, docs/performance.md).
-        None if !world.packs_shadow_rays() => {
-            world.transmittance_towards_lanes(light, from, &seen.l, seen.distance, live, leaving, last)
-        }
+        None if !world.packs_shadow_rays() => world.transmittance_towards_lanes(light, rays, last),
         None => {
             // The live lanes' rays, side by side, then their answers back in lane.
-            let (mut rays, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
+            let (mut packed, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
             for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
-                let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(&seen.l, lane) };
-                (rays[n], n) = ((shadow, seen.distance[lane]), n + 1);
+                let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
+                (packed[n], n) = ((shadow, t_max[lane]), n + 1);
             }
             let mut light = [0.0; 8];
-            world.transmittance_each(&rays[..n], &mut light[..n]);
+            world.transmittance_each(&packed[..n], &mut light[..n]);
             let mut visible = [0.0; 8];
             for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
                 visible[lane] = light;
