@@ -154,14 +154,13 @@ impl Wave {
             let mut last = LastBlocker::default();
             for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
                 let seen = towards_light_lanes(light, from, normal);
-                let mut live = 0u32;
-                let mut falloff = [0f32; 8];
-                for (lane, falloff) in falloff.iter_mut().enumerate().take(nodes.len()) {
-                    if seen.n_dot_l[lane] > 0.0 {
-                        *falloff = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
-                    }
-                    live |= ((*falloff > 0.0) as u32) << lane;
-                }
+                // Every lane's falloff, then those of the lanes lit from the front (the
+                // others' is 0): without a branch a lane, for the lanes to go together.
+                let falloff: [f32; 8] = std::array::from_fn(|lane| {
+                    let falloff = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
+                    if seen.n_dot_l[lane] > 0.0 && lane < nodes.len() { falloff } else { 0.0 }
+                });
+                let live = (0..8).fold(0u32, |live, lane| live | ((falloff[lane] > 0.0) as u32) << lane);
                 // The objects the rays leave, on the light's side where shading is two-sided.
                 let leaving: [u32; 8] = std::array::from_fn(|lane| match (nodes.get(lane), integrator.one_sided) {
                     (Some(&k), false) => level[k as usize].1.map_or(NONE, |(_, i)| i),
