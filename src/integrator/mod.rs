@@ -322,11 +322,13 @@ impl PackedSurface {
 }
 
 /// The hits of one level of a [`Wave`] that lights may change, eight to a block, lane
-/// by lane (the layout [`towards_lanes`] reads): each one's index in the level, where
-/// its shadow rays leave from and the normal lights are judged by.
+/// by lane (the layout [`towards_lanes`] reads): each one's index in the level, the
+/// object it is on ([`crate::accel::NONE`] in the lanes past the last), where its shadow
+/// rays leave from and the normal lights are judged by.
 #[derive(Clone, Debug, Default)]
 pub struct LightFrames {
     nodes: Vec<u32>,
+    objects: Vec<[u32; 8]>,
     from: Vec<[[f32; 8]; 3]>,
     normal: Vec<[[f32; 8]; 3]>,
 }
@@ -334,17 +336,20 @@ pub struct LightFrames {
 impl LightFrames {
     pub fn clear(&mut self) {
         self.nodes.clear();
+        self.objects.clear();
         self.from.clear();
         self.normal.clear();
     }
 
     #[inline(always)]
-    pub fn push(&mut self, node: u32, (from, normal): (Vec3, Vec3)) {
+    pub fn push(&mut self, node: u32, object: u32, (from, normal): (Vec3, Vec3)) {
         let lane = self.nodes.len() % 8;
         if lane == 0 {
+            self.objects.push([crate::accel::NONE; 8]);
             self.from.push([[0.0; 8]; 3]);
             self.normal.push([[0.0; 8]; 3]);
         }
+        self.objects.last_mut().expect("pushed")[lane] = object;
         let (f, n) = (self.from.last_mut().expect("pushed"), self.normal.last_mut().expect("pushed"));
         for (axis, (a, b)) in from.to_array().into_iter().zip(normal.to_array()).enumerate() {
             (f[axis][lane], n[axis][lane]) = (a, b);

@@ -127,7 +127,7 @@ impl Wave {
             if !s.lit {
                 continue;
             }
-            frames.push(k as u32, (s.from, s.n));
+            frames.push(k as u32, *index, (s.from, s.n));
             if !culls {
                 continue;
             }
@@ -152,7 +152,8 @@ impl Wave {
             let blockers = culled.then_some(&blockers[..]);
             // What blocked the last of this light's shadow rays, to try first.
             let mut last = LastBlocker::default();
-            for ((nodes, from), normal) in frames.nodes.chunks(8).zip(&frames.from).zip(&frames.normal) {
+            let lanes = frames.nodes.chunks(8).zip(&frames.objects).zip(&frames.from).zip(&frames.normal);
+            for (((nodes, objects), from), normal) in lanes {
                 let seen = towards_light_lanes(light, from, normal);
                 // Every lane's falloff, then those of the lanes lit from the front (the
                 // others' is 0): without a branch a lane, for the lanes to go together.
@@ -162,10 +163,7 @@ impl Wave {
                 });
                 let live = (0..8).fold(0u32, |live, lane| live | ((falloff[lane] > 0.0) as u32) << lane);
                 // The objects the rays leave, on the light's side where shading is two-sided.
-                let leaving: [u32; 8] = std::array::from_fn(|lane| match (nodes.get(lane), integrator.one_sided) {
-                    (Some(&k), false) => level[k as usize].1.map_or(NONE, |(_, i)| i),
-                    _ => NONE,
-                });
+                let leaving = if integrator.one_sided { [NONE; 8] } else { *objects };
                 let rays = ShadowLanes { from, dirs: &seen.l, t_max: seen.distance, live, leaving };
                 let visible = visible_lanes(world, index, blockers, &rays, &mut last);
                 for (lane, &k) in nodes.iter().enumerate() {
@@ -173,8 +171,7 @@ impl Wave {
                         continue; // the light is behind the surface
                     }
                     stats.shadow += 1;
-                    let (ray, found) = &level[k as usize];
-                    let material = integrator.material(found.expect("lit hits hit").1);
+                    let material = integrator.material(objects[lane]);
                     let l = lane_of(&seen.l, lane);
                     // Through absorbing glass the light takes its colour, ray by ray.
                     let visible = match world.absorbs() {
@@ -184,7 +181,7 @@ impl Wave {
                         }
                     };
                     let lit = (l, seen.n_dot_l[lane], visible * falloff[lane]);
-                    integrator.add_light(&mut shading[k as usize], material, ray.dir, lit, light);
+                    integrator.add_light(&mut shading[k as usize], material, level[k as usize].0.dir, lit, light);
                 }
             }
         }
