@@ -412,7 +412,7 @@ impl World<'_> {
     ) -> f32 {
         if blocker.0 != u32::MAX {
             let mut light = 1.0f64;
-            if self.leaf_stops(blocker.0 as usize, ray, t_max, &mut light) {
+            if self.leaf_stops_noted(blocker.0 as usize, ray, t_max, &mut light, blocker) {
                 return 0.0;
             }
         }
@@ -437,8 +437,7 @@ impl World<'_> {
             if self.flat_and(at as usize, leaving) {
                 continue;
             }
-            if self.leaf_stops(at as usize, ray, t_max, &mut light) {
-                blocker.0 = at;
+            if self.leaf_stops_noted(at as usize, ray, t_max, &mut light, blocker) {
                 return 0.0;
             }
         }

@@ -11,7 +11,7 @@ use crate::math::{Ray, Vec2};
 #[derive(Debug)]
 pub(super) struct MeshBvh {
     tree: WideBvh,
-    packs: Vec<Tri4>,
+    pub(super) packs: Vec<Tri4>,
     /// The mean largest side of the leaves' boxes: shadow rays whose origins lie much
     /// farther apart than this start in different leaves.
     leaf_size: f32,
@@ -156,11 +156,18 @@ impl MeshBvh {
 
     #[inline]
     pub(super) fn occluded(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
+        self.occluded_in(ray, t_min, t_max).is_some()
+    }
+
+    /// [`MeshBvh::occluded`], with the packs (a leaf's range) where a triangle blocks.
+    #[inline]
+    pub(super) fn occluded_in(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<std::ops::Range<usize>> {
         let r4 = Ray4::new(ray);
         if self.direct() {
-            return self.leaf_blocks(0..self.packs.len(), &r4, t_min, t_max);
+            let all = 0..self.packs.len();
+            return self.leaf_blocks(all.clone(), &r4, t_min, t_max).then_some(all);
         }
-        let mut hit = false;
+        let mut hit = None;
         self.tree.traverse::<false, _>(
             ray,
             t_min,
@@ -168,8 +175,8 @@ impl MeshBvh {
             &self.packs,
             #[inline(always)]
             |range, t_cur| {
-                if self.leaf_blocks(range, &r4, t_min, t_max) {
-                    hit = true;
+                if self.leaf_blocks(range.clone(), &r4, t_min, t_max) {
+                    hit = Some(range);
                     Visit::Stop
                 } else {
                     Visit::Continue(t_cur)
@@ -177,6 +184,13 @@ impl MeshBvh {
             },
         );
         hit
+    }
+
+    /// Whether a triangle of packs `range` (a leaf's, from [`MeshBvh::occluded_in`])
+    /// blocks the ray between 0 and `t_max`.
+    #[inline]
+    pub(super) fn packs_block(&self, range: std::ops::Range<usize>, ray: &Ray, t_max: f32) -> bool {
+        self.leaf_blocks(range, &Ray4::new(ray), 0.0, t_max)
     }
 
     /// [`MeshBvh::occluded`] (from 0) for `N` rays at once ([`WideBvh::any_hits`]).

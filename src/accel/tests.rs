@@ -474,11 +474,66 @@ fn a_shadow_rays_last_blocker_changes_no_answer() {
             assert_eq!(bvh.transmittance_hinted(&ray, t_max, &mut last), want, "seed {seed}, ray {i}");
             blocked += (want == 0.0) as u32;
             if i % 5 == 0 {
-                last = LastBlocker(r.below(entries)); // any entry, glass or opaque, hit or not
+                last = LastBlocker::at(r.below(entries)); // any entry, glass or opaque, hit or not
             }
         }
         // The hint answered for many rays, and many were blocked some other way.
         assert!(settled > 2000 && settled + 2000 < blocked, "seed {seed}: {settled} settled, {blocked} blocked");
+    }
+}
+
+/// Shadow rays past opaque and glass meshes, carrying the last blocker and with it the
+/// leaf of the mesh's tree that blocked (or a run of its packs picked at random, which
+/// may block or not), get the answers of testing every object, and the leaf settles
+/// many of them.
+#[test]
+fn a_meshs_blocking_leaf_changes_no_answer() {
+    for width in [4, 8] {
+        let mut scene = random_scene(21, 60);
+        let mut r = Rng::new(2100);
+        // Two wavy sheets of 3,200 triangles each across the middle: opaque, then glass.
+        let n = 40u32;
+        for (k, material) in [(0, crate::scene::MaterialId(0)), (1, crate::scene::MaterialId(1))] {
+            let pos = (0..=n)
+                .flat_map(|i| (0..=n).map(move |j| (i as f32, j as f32)))
+                .map(|(i, j)| Vec3::new(i - 20.0, (i * 0.7).sin() + (j * 0.5).cos() + k as f32 * 6.0 - 3.0, j - 20.0))
+                .collect();
+            let quads = (0..n).flat_map(|i| (0..n).map(move |j| i * (n + 1) + j));
+            let tris = quads.flat_map(|a| [[a, a + 1, a + n + 1], [a + 1, a + n + 2, a + n + 1]]).collect();
+            scene.add(Mesh::new(pos, vec![], vec![], tris, false).expect("a mesh"), material);
+        }
+        let (bvh, brute) =
+            (World::with_width(&scene, AccelKind::Bvh, Some(width)), World::new(&scene, AccelKind::None));
+        let sheet = (0..bvh.leaves.len()).find(|&at| bvh.opaque_mesh(at).is_some()).expect("the opaque sheet");
+        let packs = bvh.opaque_mesh(sheet).expect("a mesh").packs.len() as u32;
+        let (mut last, mut settled, mut blocked) = (LastBlocker::default(), 0, 0);
+        for i in 0..40_000 {
+            // From points below the sheets towards a light above them; a new region and
+            // light every 64 rays.
+            if i % 64 == 0 {
+                last = LastBlocker::default();
+            }
+            let (region, light) = {
+                let mut q = Rng::new(1000 + i / 64);
+                (v(&mut q, 15.0) - Vec3::Y * 12.0, v(&mut q, 15.0) + Vec3::Y * 30.0)
+            };
+            let from = region + v(&mut r, 1.0);
+            let ray = Ray::new(from, light - from);
+            let t_max = (light - from).length();
+            let part = last.1 as usize..last.2 as usize;
+            settled += (last.0 as usize == sheet
+                && !part.is_empty()
+                && bvh.opaque_mesh(sheet).expect("a mesh").packs_block(part, &ray, t_max))
+                as u32;
+            let want = brute.transmittance(&ray, t_max);
+            assert_eq!(bvh.transmittance_hinted(&ray, t_max, &mut last), want, "width {width}, ray {i}");
+            blocked += (want == 0.0) as u32;
+            if i % 7 == 0 {
+                let start = r.below(packs);
+                last = LastBlocker(sheet as u32, start, (start + 1 + r.below(3)).min(packs));
+            }
+        }
+        assert!(settled > 10_000 && blocked > settled, "width {width}: {settled} settled, {blocked} blocked");
     }
 }
 
@@ -555,7 +610,7 @@ fn shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
             blocked += (want == 0.0) as u32;
             through += (want > 0.0 && want < 1.0) as u32;
             if i % 7 == 0 {
-                last = LastBlocker(r.below(entries));
+                last = LastBlocker::at(r.below(entries));
             }
         }
         assert!(listed > 20_000 && crowded > 1000, "seed {seed}: {listed} listed, {crowded} crowded");
