@@ -211,29 +211,10 @@ impl LightBuffer {
             // Selections rather than branches, so that the lanes go together.
             let x_major = a[0] >= a[1] && a[0] >= a[2];
             let y_major = !x_major && a[1] >= a[2];
-            let z = if x_major {
-                a[0]
-            } else if y_major {
-                a[1]
-            } else {
-                a[2]
-            };
-            let along = if x_major {
-                w[0]
-            } else if y_major {
-                w[1]
-            } else {
-                w[2]
-            };
+            let (z, along) = (pick(x_major, y_major, a), pick(x_major, y_major, w));
             let u = if x_major { w[1] } else { w[0] };
             let v = if x_major || y_major { w[2] } else { w[1] };
-            let first = if x_major {
-                0
-            } else if y_major {
-                2
-            } else {
-                4
-            };
+            let first = pick(x_major, y_major, [0, 2, 4]);
             face[lane] = first + u32::from(along < 0.0);
             valid[lane] = z > 0.0 && z < f32::INFINITY;
             let scale = half / z;
@@ -272,6 +253,19 @@ impl LightBuffer {
 const NO_CELL: u32 = u32::MAX;
 const NO_ENTRIES: u32 = u32::MAX - 1;
 const _: () = assert!(((MAX_ENTRIES as u32) << LEN_BITS | CROWDED) < NO_ENTRIES);
+
+/// The first of `xyz` where `x_major`, the second where `y_major`, else the third: an
+/// axis's value chosen by selection, for [`LightBuffer::words_of_lanes`].
+#[inline(always)]
+fn pick<T>(x_major: bool, y_major: bool, [x, y, z]: [T; 3]) -> T {
+    if x_major {
+        x
+    } else if y_major {
+        y
+    } else {
+        z
+    }
+}
 
 /// Why a buffer was not made with so many cells.
 enum Unfit {
