@@ -197,9 +197,8 @@ impl LightBuffer {
     /// (start and length, or [`CROWDED`]), [`NO_CELL`] where there is no direction, or
     /// [`NO_ENTRIES`] where no entry lies in its face's directions. Written on plain
     /// arrays, each lane doing `cell_of`'s operations in its order (so the same cells),
-    /// for the compiler to work out the lanes together; the words are then read one
-    /// after another, so their cache misses overlap rather than each waiting on the last
-    /// lane's list.
+    /// with selections rather than branches, so that the compiler works the lanes
+    /// together (with `cell_of`'s branches it gained nothing: docs/performance.md).
     #[inline(always)]
     pub(super) fn words_of_lanes(&self, from: &[[f32; 8]; 3]) -> [u32; 8] {
         let (n, half, top) = (self.n as u32, 0.5 * self.n as f32, (self.n - 1) as f32);
@@ -360,8 +359,8 @@ impl World<'_> {
     /// [`World::transmittance_towards`] for eight shadow rays, one after another with
     /// `blocker` carried on: the same answers, with the lanes' cells found together
     /// ([`LightBuffer::words_of_lanes`]). A flat object is not tested against the rays
-    /// that leave it (`rays.leaving`), as they cannot meet it (the SPD floors: a quarter
-    /// of the sphereflake's tests).
+    /// that leave it (`rays.leaving`), as they cannot meet it (the SPD floor: nearly a
+    /// fifth of the sphereflake's list tests).
     #[inline]
     pub fn transmittance_towards_lanes(&self, light: usize, rays: &ShadowLanes, blocker: &mut LastBlocker) -> [f32; 8] {
         let ShadowLanes { from, dirs, t_max, live, leaving } = *rays;
