@@ -169,66 +169,53 @@ impl LightBuffer {
     /// the cell is crowded or there is no direction (`p` at the light, or not finite).
     #[inline(always)]
     pub(super) fn cell_of(&self, p: Vec3) -> Option<&[(u32, f32)]> {
-        let w = p - self.at;
-        let a = w.abs();
-        let (face, z, u, v) = if a.x >= a.y && a.x >= a.z {
-            (usize::from(w.x < 0.0), a.x, w.y, w.z)
-        } else if a.y >= a.z {
-            (2 + usize::from(w.y < 0.0), a.y, w.x, w.z)
-        } else {
-            (4 + usize::from(w.z < 0.0), a.z, w.x, w.y)
-        };
-        if !(z > 0.0 && z.is_finite()) {
-            return None;
-        }
-        let base = self.faces[face];
-        if base == EMPTY_FACE {
-            return Some(&[]);
-        }
-        let n = self.n;
-        let scale = 0.5 * n as f32 / z;
-        let cell = |s: f32| ((s * scale + 0.5 * n as f32) as usize).min(n - 1);
-        let word = self.cells[base as usize + cell(u) * n + cell(v)];
-        let (start, len) = ((word >> LEN_BITS) as usize, word & LEN_MASK);
-        (len != CROWDED).then(|| &self.entries[start..start + len as usize])
+        self.list_of(self.word(self.place(p.to_array())))
     }
 
-    /// [`LightBuffer::cell_of`] for eight points at once, as words: the cell's word
-    /// (start and length, or [`CROWDED`]), [`NO_CELL`] where there is no direction, or
-    /// [`NO_ENTRIES`] where no entry lies in its face's directions. Written on plain
-    /// arrays, each lane doing `cell_of`'s operations in its order (so the same cells),
-    /// with selections rather than branches, so that the compiler works the lanes
-    /// together (with `cell_of`'s branches it gained nothing: docs/performance.md).
+    /// [`LightBuffer::cell_of`] for eight points at once, as words ([`LightBuffer::word`]).
+    /// The lanes are placed first, then their words read, so that the compiler works
+    /// the placing of the eight together (`place` selects rather than branches; with
+    /// branches it gained nothing: docs/performance.md).
     #[inline(always)]
     pub(super) fn words_of_lanes(&self, from: &[[f32; 8]; 3]) -> [u32; 8] {
-        let (n, half, top) = (self.n as u32, 0.5 * self.n as f32, (self.n - 1) as f32);
-        let (mut face, mut offset) = ([0u32; 8], [0u32; 8]);
-        let mut valid = [false; 8];
+        // Row by row, as the compiler can work them in vector registers.
+        let (mut face, mut offset, mut valid) = ([0u32; 8], [0u32; 8], [false; 8]);
         for lane in 0..8 {
-            let w = [from[0][lane] - self.at.x, from[1][lane] - self.at.y, from[2][lane] - self.at.z];
-            let a = w.map(f32::abs);
-            // Selections rather than branches, so that the lanes go together.
-            let x_major = a[0] >= a[1] && a[0] >= a[2];
-            let y_major = !x_major && a[1] >= a[2];
-            let (z, along) = (pick(x_major, y_major, a), pick(x_major, y_major, w));
-            let u = if x_major { w[1] } else { w[0] };
-            let v = if x_major || y_major { w[2] } else { w[1] };
-            let first = pick(x_major, y_major, [0, 2, 4]);
-            face[lane] = first + u32::from(along < 0.0);
-            valid[lane] = z > 0.0 && z < f32::INFINITY;
-            let scale = half / z;
-            // As `cell_of`'s `as usize` and `min`: below 0 or NaN is 0, past the last is the last.
-            let cell = |s: f32| (s * scale + half).max(0.0).min(top) as u32;
-            offset[lane] = cell(u) * n + cell(v);
+            (face[lane], offset[lane], valid[lane]) = self.place([from[0][lane], from[1][lane], from[2][lane]]);
         }
-        std::array::from_fn(|lane| {
-            let base = self.faces[face[lane] as usize];
-            match (valid[lane], base) {
-                (false, _) => NO_CELL,
-                (true, EMPTY_FACE) => NO_ENTRIES,
-                (true, base) => self.cells[base as usize + offset[lane] as usize],
-            }
-        })
+        std::array::from_fn(|lane| self.word((face[lane], offset[lane], valid[lane])))
+    }
+
+    /// Where the direction from the light to `p` lies: its face, its cell's place
+    /// among the face's cells, and whether it has one (not where `p` is the light or
+    /// not finite). The one computation of a cell, for one point or eight side by side.
+    #[inline(always)]
+    fn place(&self, p: [f32; 3]) -> (u32, u32, bool) {
+        let (n, half, top) = (self.n as u32, 0.5 * self.n as f32, (self.n - 1) as f32);
+        let w = [p[0] - self.at.x, p[1] - self.at.y, p[2] - self.at.z];
+        let a = w.map(f32::abs);
+        let x_major = a[0] >= a[1] && a[0] >= a[2];
+        let y_major = !x_major && a[1] >= a[2];
+        let (z, along) = (pick(x_major, y_major, a), pick(x_major, y_major, w));
+        let u = if x_major { w[1] } else { w[0] };
+        let v = if x_major || y_major { w[2] } else { w[1] };
+        let face = pick(x_major, y_major, [0, 2, 4]) + u32::from(along < 0.0);
+        let scale = half / z;
+        // Below 0 or NaN is the first cell, past the last is the last.
+        let cell = |s: f32| (s * scale + half).max(0.0).min(top) as u32;
+        (face, cell(u) * n + cell(v), z > 0.0 && z < f32::INFINITY)
+    }
+
+    /// The word of a cell [`LightBuffer::place`] found: its start and length (or
+    /// [`CROWDED`]), [`NO_CELL`] where there is no direction, or [`NO_ENTRIES`] where no
+    /// entry lies in its face's directions.
+    #[inline(always)]
+    fn word(&self, (face, offset, valid): (u32, u32, bool)) -> u32 {
+        match (valid, self.faces[face as usize]) {
+            (false, _) => NO_CELL,
+            (true, EMPTY_FACE) => NO_ENTRIES,
+            (true, base) => self.cells[base as usize + offset as usize],
+        }
     }
 
     /// The list a word of [`LightBuffer::words_of_lanes`] stands for, as `cell_of`
@@ -254,7 +241,7 @@ const NO_ENTRIES: u32 = u32::MAX - 1;
 const _: () = assert!(((MAX_ENTRIES as u32) << LEN_BITS | CROWDED) < NO_ENTRIES);
 
 /// The first of `xyz` where `x_major`, the second where `y_major`, else the third: an
-/// axis's value chosen by selection, for [`LightBuffer::words_of_lanes`].
+/// axis's value chosen by selection, for [`LightBuffer::place`].
 #[inline(always)]
 fn pick<T>(x_major: bool, y_major: bool, [x, y, z]: [T; 3]) -> T {
     if x_major {
