@@ -390,11 +390,8 @@ impl World<'_> {
         blocker: &mut LastBlocker,
         leaving: u32,
     ) -> f32 {
-        if blocker.0 != u32::MAX {
-            let mut light = 1.0f64;
-            if self.leaf_stops_noted(blocker.0 as usize, ray, t_max, &mut light, blocker) {
-                return 0.0;
-            }
+        if blocker.0 != u32::MAX && self.hint_stops(ray, t_max, blocker) {
+            return 0.0;
         }
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {

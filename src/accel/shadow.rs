@@ -73,11 +73,12 @@ impl World<'_> {
             return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
         }
         // A ray of NaNs or from an overflowed point is not tested: the walk meets nothing.
-        if blocker.0 != u32::MAX && ray.origin.is_finite() && ray.dir.is_finite() {
-            let mut light = 1.0f64;
-            if self.leaf_stops_noted(blocker.0 as usize, ray, t_max, &mut light, blocker) {
-                return 0.0;
-            }
+        if blocker.0 != u32::MAX
+            && ray.origin.is_finite()
+            && ray.dir.is_finite()
+            && self.hint_stops(ray, t_max, blocker)
+        {
+            return 0.0;
         }
         let mut light = 1.0f64;
         self.traverse_objects::<false>(ray, 0.0, t_max, |at, _| {
@@ -130,6 +131,23 @@ impl World<'_> {
     #[inline]
     pub fn transmittance(&self, ray: &Ray, t_max: f32) -> f32 {
         self.transmittance_hinted(ray, t_max, &mut LastBlocker::default())
+    }
+
+    /// Whether the last blocker (`blocker`, which names an entry) stops the ray: the
+    /// entry tested, but of an opaque mesh only the leaf of its tree that blocked,
+    /// not the whole tree, which the walk or list that follows reaches anyway where
+    /// the mesh lies in the way (so a ray that the leaf lets through does not walk
+    /// the mesh's tree twice).
+    #[inline(always)]
+    pub(super) fn hint_stops(&self, ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> bool {
+        let at = blocker.0 as usize;
+        match self.opaque_mesh(at) {
+            Some(mesh) => {
+                let part = blocker.1 as usize..blocker.2 as usize;
+                !part.is_empty() && mesh.packs_block(part, ray, t_max)
+            }
+            None => self.leaf_stops_noted(at, ray, t_max, &mut 1.0, blocker),
+        }
     }
 
     /// [`World::leaf_stops`], noting in `blocker` what stops the light: the entry, and
