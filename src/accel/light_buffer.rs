@@ -121,33 +121,36 @@ impl LightBuffer {
             (*face, used) = (used, used + (n * n) as u32);
         }
         let cell_of = |face: usize, u: usize, v: usize| faces[face] as usize + u * n + v;
-        // Count each cell's entries, then give each its place.
-        let mut counts = vec![0u32; used as usize];
+        // Count each cell's entries, then give each its place, in the same array (a
+        // second one as big was a fifth of the buffers' fresh memory, each page of which
+        // a new process pays a page fault for).
+        let mut cells = vec![0u32; used as usize];
         for &(_, i) in order {
-            each_cell(at, &boxes[i as usize], n, |face, u, v| counts[cell_of(face, u, v)] += 1);
+            each_cell(at, &boxes[i as usize], n, |face, u, v| cells[cell_of(face, u, v)] += 1);
         }
-        let mut sum = 0usize;
-        let cells: Vec<u32> = counts
-            .iter()
-            .map(|&count| match count > MAX_LIST {
-                true => (sum as u32) << LEN_BITS | CROWDED,
+        let (mut sum, mut crowded, mut listed) = (0usize, 0usize, 0usize);
+        for cell in cells.iter_mut() {
+            let count = *cell;
+            *cell = match count > MAX_LIST {
+                true => {
+                    crowded += 1;
+                    (sum as u32) << LEN_BITS | CROWDED
+                }
                 false => {
+                    listed += (count != 0) as usize;
                     let start = sum as u32;
                     sum += count as usize;
                     start << LEN_BITS
                 }
-            })
-            .collect();
+            };
+        }
         // Too many entries, or too many crowded cells for the buffer to pay.
-        let crowded = cells.iter().filter(|&&c| c & LEN_MASK == CROWDED).count();
-        let listed = counts.iter().filter(|&&c| c != 0).count() - crowded;
         if sum > MAX_ENTRIES {
             return Err(Full);
         }
         if crowded > listed {
             return Err(Unfit::Crowded);
         }
-        let mut cells = cells;
         let mut entries = vec![(0u32, 0f32); sum];
         for &(near, i) in order {
             each_cell(at, &boxes[i as usize], n, |face, u, v| {
