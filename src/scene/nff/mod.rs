@@ -644,8 +644,9 @@ impl<'a, R: BufRead> Parser<'a, R> {
         warn(&self.crossing, "self-crossing or very large concave polygon fanned");
         warn(&self.shares, "material with Ks + T > 1 (scaled to sum to 1) or no room for Kd");
         warn(&self.no_material, "object before any `f`, made white and matte");
-        let mut objects = Vec::new();
-        objects.append(&mut self.spheres);
+        // The spheres' list becomes the objects' (most of a scene's, often): a copy
+        // into a fresh list would write as many new pages, each a page fault.
+        let mut objects = std::mem::take(&mut self.spheres);
         objects.append(&mut self.cylinders);
         objects.append(&mut self.cones);
         for (material, smooth, m) in self.meshes {
