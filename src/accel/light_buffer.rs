@@ -191,22 +191,29 @@ impl LightBuffer {
 
     /// Where the direction from the light to `p` lies: its face, its cell's place
     /// among the face's cells, and whether it has one (not where `p` is the light or
-    /// not finite). The one computation of a cell, for one point or eight side by side.
+    /// not finite). The one computation of a cell, for one point or eight side by side:
+    /// written as selections, without a branch or a checked conversion, so that eight
+    /// points' placing compiles to vector instructions (1.6 % of the sphereflake's
+    /// instructions, where a lane at a time with `as u32` converted one by one).
     #[inline(always)]
+    #[allow(unsafe_code)]
     fn place(&self, p: [f32; 3]) -> (u32, u32, bool) {
         let (n, half, top) = (self.n as u32, 0.5 * self.n as f32, (self.n - 1) as f32);
         let w = [p[0] - self.at.x, p[1] - self.at.y, p[2] - self.at.z];
         let a = w.map(f32::abs);
-        let x_major = a[0] >= a[1] && a[0] >= a[2];
-        let y_major = !x_major && a[1] >= a[2];
+        let x_major = (a[0] >= a[1]) & (a[0] >= a[2]);
+        let y_major = !x_major & (a[1] >= a[2]);
         let (z, along) = (pick(x_major, y_major, a), pick(x_major, y_major, w));
         let u = if x_major { w[1] } else { w[0] };
-        let v = if x_major || y_major { w[2] } else { w[1] };
+        let v = if x_major | y_major { w[2] } else { w[1] };
         let face = pick(x_major, y_major, [0, 2, 4]) + u32::from(along < 0.0);
         let scale = half / z;
         // Below 0 or NaN is the first cell, past the last is the last.
-        let cell = |s: f32| (s * scale + half).max(0.0).min(top) as u32;
-        (face, cell(u) * n + cell(v), z > 0.0 && z < f32::INFINITY)
+        // SAFETY: `max` turns NaN into 0 and `min` caps the value at `top`, so what is
+        // converted is finite and in `0..=top`, and `top` (a face's cells a side, less
+        // one: at most 127, `LightBuffer::side`) is far below `i32::MAX`.
+        let cell = |s: f32| unsafe { (s * scale + half).max(0.0).min(top).to_int_unchecked::<i32>() } as u32;
+        (face, cell(u) * n + cell(v), (z > 0.0) & (z < f32::INFINITY))
     }
 
     /// The word of a cell [`LightBuffer::place`] found: its start and length (or
