@@ -374,9 +374,16 @@ impl World<'_> {
             }
         };
         let words = buffer.words_of_lanes(from);
+        // Which lanes' rays are finite, the eight side by side.
+        let mut finite = [true; 8];
+        for row in from.iter().chain(dirs) {
+            for lane in 0..8 {
+                finite[lane] &= row[lane].abs() < f32::INFINITY;
+            }
+        }
         for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
             let ray = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
-            let list = match ray.origin.is_finite() && ray.dir.is_finite() {
+            let list = match finite[lane] {
                 true => buffer.list_of(words[lane]),
                 false => None,
             };
