@@ -212,7 +212,7 @@ impl World<'_> {
             LeafItem::Spheres(ref pack) => {
                 self.pass_through(pack.intersect(&Ray4::new(ray), 0.0, t_max).0, &pack.ids, light)
             }
-            LeafItem::Spheres8(ref pack) => self.pass_through(pack.intersect(ray, 0.0, t_max).0, &pack.ids, light),
+            LeafItem::Spheres8(ref pack) => self.pass_through(self.spheres8(pack, ray, 0.0, t_max).0, &pack.ids, light),
             LeafItem::Inline(ref shape, i) => {
                 self.pass_through(shape.intersect(ray, 0.0, t_max).is_some() as u32, &[i], light)
             }

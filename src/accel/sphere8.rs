@@ -60,7 +60,7 @@ impl Sphere8 {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
-    fn intersect_avx2(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
+    pub(super) fn intersect_avx2(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
         let row = |r: &F8| Avx8::load(r);
         let (o, d) = (lanes::splat3::<Avx8>(ray.origin), lanes::splat3::<Avx8>(ray.dir));
         let (hit, t) =
