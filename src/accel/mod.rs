@@ -521,9 +521,6 @@ fn leaf_avx2(range: std::ops::Range<usize>, t_cur: f32, test: &mut impl FnMut(us
     leaf_loop(range, t_cur, test)
 }
 
-#[cfg(test)]
-mod tests;
-
 /// [`Sphere8::intersect`] off the hot path: packs of eight exist only where AVX2 runs
 /// ([`World::spheres8`]), so this is never reached there, and not inlining it keeps
 /// its code out of the walks and the light buffers' loops.
@@ -531,3 +528,6 @@ mod tests;
 fn portable(pack: &Sphere8, ray: &Ray, t_min: f32, t_max: f32) -> (u32, crate::math::lanes::F8) {
     pack.intersect(ray, t_min, t_max)
 }
+
+#[cfg(test)]
+mod tests;
