@@ -388,14 +388,13 @@ impl<'s> World<'s> {
         if !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return;
         }
-        // The 8-wide walk is built for AVX2, but the leaf closure is not inlined into it,
-        // and built without AVX2 it could not inline [`Sphere8`]'s AVX test: the leaves
-        // are tested in a function built for AVX2 instead ([`leaf_avx2`]).
+        // The 8-wide walk is built for AVX2; its leaf closure is made in a function built
+        // for AVX2 too ([`walk_avx2`]), so that it and [`Sphere8`]'s AVX test are inlined
+        // into the walk rather than called once per leaf.
         #[cfg(target_arch = "x86_64")]
         if let WideBvh::Eight(tree) = &self.top4 {
             // SAFETY: a `Bvh8` exists only where the processor has AVX2.
-            let leaf = |range, t_cur| unsafe { leaf_avx2(range, t_cur, &mut test) };
-            return tree.start::<NEAREST_FIRST, _>(ray, t_min, t_max, &self.leaves, leaf);
+            return unsafe { walk_avx2::<NEAREST_FIRST>(tree, ray, t_min, t_max, &self.leaves, &mut test) };
         }
         let leaf = |range, t_cur| leaf_loop(range, t_cur, &mut test);
         self.top4.traverse::<NEAREST_FIRST, _>(ray, t_min, t_max, &self.leaves, leaf)
@@ -438,19 +437,16 @@ impl<'s> World<'s> {
         }
     }
 
-    /// [`Sphere8::intersect`] for a pack of this world's leaves. Packs of eight are made
-    /// only where the tree is 8-wide, which only a processor with AVX2 gets (as
-    /// `self.avx2` records), so their test need not ask again, pack by pack, whether
-    /// AVX2 runs (a static's check, 1 % of the sphereflake's instructions).
+    /// [`Sphere8::intersect`] for a pack of this world's leaves, without asking again,
+    /// pack by pack, whether AVX2 runs ([`Sphere8::intersect_unchecked`]).
     #[inline(always)]
     #[allow(unsafe_code)]
     fn spheres8(&self, pack: &Sphere8, ray: &Ray, t_min: f32, t_max: f32) -> (u32, crate::math::lanes::F8) {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: `avx2` is set only where the processor has AVX2.
-            return unsafe { pack.intersect_avx2(ray, t_min, t_max) };
-        }
-        portable(pack, ray, t_min, t_max)
+        debug_assert!(self.avx2);
+        // SAFETY: packs of eight are made only where the top tree is 8-wide (`World::new`),
+        // and an 8-wide tree only where the processor has AVX2 (`WideBvh::with_width`,
+        // `lanes::avx2`).
+        unsafe { pack.intersect_unchecked(ray, t_min, t_max) }
     }
 
     /// The objects of leaf entry `at` against the ray, within `(t_min, t_cur)`, kept in
@@ -512,21 +508,24 @@ fn leaf_loop(range: std::ops::Range<usize>, mut t_cur: f32, test: &mut impl FnMu
     Visit::Continue(t_cur)
 }
 
-/// [`leaf_loop`] built for AVX2, for the 8-wide walk: so [`Sphere8`]'s AVX test is
-/// inlined into it, not called once per pack.
+
+/// The 8-wide walk over `leaves` with its leaf closure made in a function built for AVX2,
+/// whose target features the closure takes: so the walk, the closure and the leaf's
+/// tests ([`leaf_loop`], [`Sphere8`]'s AVX test) are built as one. (A closure made
+/// elsewhere, without AVX2, was called once per leaf, and called in turn a function
+/// built for AVX2: two calls a leaf, 4 % of the sphereflake's sent rays' instructions.)
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[inline]
-fn leaf_avx2(range: std::ops::Range<usize>, t_cur: f32, test: &mut impl FnMut(usize, f32) -> Visit) -> Visit {
-    leaf_loop(range, t_cur, test)
-}
-
-/// [`Sphere8::intersect`] off the hot path: packs of eight exist only where AVX2 runs
-/// ([`World::spheres8`]), so this is never reached there, and not inlining it keeps
-/// its code out of the walks and the light buffers' loops.
-#[inline(never)]
-fn portable(pack: &Sphere8, ray: &Ray, t_min: f32, t_max: f32) -> (u32, crate::math::lanes::F8) {
-    pack.intersect(ray, t_min, t_max)
+fn walk_avx2<const NEAREST_FIRST: bool>(
+    tree: &wide8::Bvh8,
+    ray: &Ray,
+    t_min: f32,
+    t_max: f32,
+    leaves: &[LeafItem],
+    test: &mut impl FnMut(usize, f32) -> Visit,
+) {
+    tree.start::<NEAREST_FIRST, _>(ray, t_min, t_max, leaves, |range, t_cur| leaf_loop(range, t_cur, test));
 }
 
 #[cfg(test)]

@@ -38,11 +38,10 @@ impl Sphere8 {
         p
     }
 
-    /// A bit mask of the lanes hit within `(t_min, t_max)`, and per lane the distance.
-    /// With AVX2 (packs of eight are made only then) on AVX lanes, inlined into the
-    /// 8-wide walk's leaf code ([`super::leaf_avx2`]); else (tests, `WHITTED_PORTABLE=1`)
-    /// the same test on portable [`F8`] lanes.
-    #[inline(always)]
+    /// A bit mask of the lanes hit within `(t_min, t_max)`, and per lane the distance:
+    /// on AVX lanes where AVX2 runs, else (tests, `WHITTED_PORTABLE=1`) the same test
+    /// on portable [`F8`] lanes. The world's leaves use [`Sphere8::intersect_unchecked`].
+    #[cfg(test)]
     #[allow(unsafe_code)]
     pub fn intersect(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
         #[cfg(target_arch = "x86_64")]
@@ -53,6 +52,25 @@ impl Sphere8 {
         self.intersect_lanes(ray, t_min, t_max)
     }
 
+    /// [`Sphere8::intersect`] without asking, pack by pack, whether AVX2 runs: on AVX
+    /// lanes on x86-64, inlined into the 8-wide walk's leaf code
+    /// ([`super::walk_avx2`]) and the light buffers' loops. The check was 1 % of the
+    /// sphereflake's instructions, and the portable path inlined beside it made the
+    /// code round it worse.
+    ///
+    /// # Safety
+    /// On x86-64 the processor has AVX2. (The world makes packs of eight only for an
+    /// 8-wide tree, which only such a processor gets: [`super::World::spheres8`].)
+    #[inline(always)]
+    #[allow(unsafe_code)]
+    pub unsafe fn intersect_unchecked(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
+        // SAFETY: the caller promises AVX2.
+        #[cfg(target_arch = "x86_64")]
+        return unsafe { self.intersect_avx2(ray, t_min, t_max) };
+        #[cfg(not(target_arch = "x86_64"))]
+        self.intersect_lanes(ray, t_min, t_max)
+    }
+
     /// The test on [`Avx8`] lanes: the same source, as 8-wide AVX instructions. (On
     /// [`F8`], whose loops LLVM is left to vectorize, it came out as a tangle of
     /// shuffles and 4-wide halves, and the sphereflake rendered 20 % slower.) Built for
@@ -60,7 +78,7 @@ impl Sphere8 {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     #[inline]
-    pub(super) fn intersect_avx2(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
+    fn intersect_avx2(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
         let row = |r: &F8| Avx8::load(r);
         let (o, d) = (lanes::splat3::<Avx8>(ray.origin), lanes::splat3::<Avx8>(ray.dir));
         let (hit, t) =
@@ -69,6 +87,7 @@ impl Sphere8 {
     }
 
     /// The portable path: the same test on [`F8`] lanes.
+    #[cfg(any(test, not(target_arch = "x86_64")))]
     #[inline(always)]
     fn intersect_lanes(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
         let (o, d) = (lanes::splat3::<F8>(ray.origin), lanes::splat3::<F8>(ray.dir));
