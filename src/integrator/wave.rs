@@ -166,13 +166,11 @@ impl Wave {
                 let leaving = if integrator.one_sided { [NONE; 8] } else { *objects };
                 let rays = ShadowLanes { from, dirs: &seen.l, t_max: seen.distance, live, leaving };
                 let visible = visible_lanes(world, index, blockers, &rays, &mut last);
-                // The lanes lit from the front (the others' light is behind the surface).
-                stats.shadow += u64::from(live.count_ones());
-                let mut lanes = live;
-                while lanes != 0 {
-                    let lane = lanes.trailing_zeros() as usize;
-                    lanes &= lanes - 1;
-                    let k = nodes[lane];
+                for (lane, &k) in nodes.iter().enumerate() {
+                    if live >> lane & 1 == 0 {
+                        continue; // the light is behind the surface
+                    }
+                    stats.shadow += 1;
                     let material = integrator.material(objects[lane]);
                     let l = lane_of(&seen.l, lane);
                     // Through absorbing glass the light takes its colour, ray by ray.
