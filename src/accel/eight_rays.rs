@@ -32,51 +32,49 @@ impl World<'_> {
 
     /// Eight rays as one packet, if the tree and their directions allow it.
     #[inline]
-    #[allow(unsafe_code)]
     fn closest_packet(&self, group: &mut [(Ray, Option<(Hit, u32)>); 8]) -> bool {
         #[cfg(target_arch = "x86_64")]
         if let WideBvh::Eight(tree) = &self.top4
             && !self.flat
             && group.iter().all(|(r, _)| r.origin.is_finite() && r.dir.is_finite())
         {
-            // SAFETY: a `Bvh8` exists only where the processor has AVX2.
-            return unsafe { self.packet_eight(tree, group) };
-        }
-        false
-    }
-
-    /// [`World::closest_packet`] through the 8-wide tree, built for AVX2 so that the
-    /// leaf closure made here is too, and the spheres' AVX test is inlined into it
-    /// rather than called for every pack (as [`World::closest`] does).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn packet_eight(&self, tree: &super::wide8::Bvh8, group: &mut [(Ray, Option<(Hit, u32)>); 8]) -> bool {
-        let rays = group.each_ref().map(|(r, _)| r);
-        let mut nearest = [Nearest::default(); 8];
-        let packed = tree.nearest_packet(rays, 0xff, 0.0, [f32::INFINITY; 8], &self.leaves, |mask, range, t| {
-            for at in range {
-                match &self.leaves[at] {
-                    // A quad (an SPD floor) met by several rays: tested once for them.
-                    LeafItem::Inline(Inline::Quad(q), i) if mask & (mask - 1) != 0 => {
-                        quad_lanes(q, *i, rays, mask, t, &mut nearest)
-                    }
-                    _ => {
-                        let mut m = mask;
-                        while m != 0 {
-                            let k = m.trailing_zeros() as usize;
-                            m &= m - 1;
-                            t[k] = self.leaf_nearest(at, rays[k], 0.0, t[k], &mut nearest[k]);
+            let rays = group.each_ref().map(|(r, _)| r);
+            let mut nearest = [Nearest::default(); 8];
+            let packed = tree.nearest_packet(
+                rays,
+                0xff,
+                0.0,
+                [f32::INFINITY; 8],
+                &self.leaves,
+                // Inlined into the walk, built for AVX2, so the spheres' AVX test is too.
+                #[inline(always)]
+                |mask, range, t| {
+                    for at in range {
+                        match &self.leaves[at] {
+                            // A quad (an SPD floor) met by several rays: tested once for them.
+                            LeafItem::Inline(Inline::Quad(q), i) if mask & (mask - 1) != 0 => {
+                                quad_lanes(q, *i, rays, mask, t, &mut nearest)
+                            }
+                            _ => {
+                                let mut m = mask;
+                                while m != 0 {
+                                    let k = m.trailing_zeros() as usize;
+                                    m &= m - 1;
+                                    t[k] = self.leaf_nearest(at, rays[k], 0.0, t[k], &mut nearest[k]);
+                                }
+                            }
                         }
                     }
+                },
+            );
+            if packed {
+                for ((_, hit), nearest) in group.iter_mut().zip(nearest) {
+                    *hit = nearest.get();
                 }
             }
-        });
-        if packed {
-            for ((_, hit), nearest) in group.iter_mut().zip(nearest) {
-                *hit = nearest.get();
-            }
+            return packed;
         }
-        packed
+        false
     }
 
     /// [`World::closest`] for each of `rays`, into `out` (as long): in a world of one

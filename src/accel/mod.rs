@@ -375,7 +375,6 @@ impl<'s> World<'s> {
     /// (else in node order, which saves sorting when every hit counts);
     /// `test(index of the entry in `leaves`, t_max)` as in [`Bvh::traverse`].
     #[inline]
-    #[allow(unsafe_code)]
     fn traverse_objects<const NEAREST_FIRST: bool>(
         &self,
         ray: &Ray,
@@ -388,16 +387,19 @@ impl<'s> World<'s> {
         if !(ray.origin.is_finite() && ray.dir.is_finite()) {
             return;
         }
-        // The 8-wide walk is built for AVX2; its leaf closure is made in a function built
-        // for AVX2 too ([`walk_avx2`]), so that it and [`Sphere8`]'s AVX test are inlined
-        // into the walk rather than called once per leaf.
-        #[cfg(target_arch = "x86_64")]
-        if let WideBvh::Eight(tree) = &self.top4 {
-            // SAFETY: a `Bvh8` exists only where the processor has AVX2.
-            return unsafe { walk_avx2::<NEAREST_FIRST>(tree, ray, t_min, t_max, &self.leaves, &mut test) };
-        }
-        let leaf = |range, t_cur| leaf_loop(range, t_cur, &mut test);
-        self.top4.traverse::<NEAREST_FIRST, _>(ray, t_min, t_max, &self.leaves, leaf)
+        // The walks are built for AVX2 (the 8-wide one) or baseline x86-64: a leaf
+        // closure inlined into the walk, and `test` into it, has the shape tests built
+        // the walk's way, the spheres' AVX test inlined rather than called once per pack
+        // (a closure takes the target features of the function it is written in, here
+        // plain x86-64, so inlining it is the way in: docs/performance.md).
+        self.top4.traverse::<NEAREST_FIRST, _>(
+            ray,
+            t_min,
+            t_max,
+            &self.leaves,
+            #[inline(always)]
+            |range, t_cur| leaf_loop(range, t_cur, &mut test),
+        )
     }
 
     #[inline]
@@ -421,40 +423,23 @@ impl<'s> World<'s> {
 
     /// The nearest hit in `(t_min, t_max)` and the index of the object hit.
     #[inline]
-    #[allow(unsafe_code)]
     pub fn closest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
         if self.flat {
             return self.closest_of(0..self.scene.objects.len() as u32, ray, t_min, t_max);
-        }
-        #[cfg(target_arch = "x86_64")]
-        if let WideBvh::Eight(tree) = &self.top4 {
-            // SAFETY: a `Bvh8` exists only where the processor has AVX2.
-            return unsafe { self.closest_eight(tree, ray, t_min, t_max) };
         }
         // The best hit so far field by field, not as an `Option<(Hit, u32)>`: written
         // piecewise and read back whole, the option stalled store forwarding (a quarter
         // of this function's time in the room).
         let mut nearest = Nearest::default();
-        self.traverse_objects::<true>(ray, t_min, t_max, |at, t_cur| {
-            Visit::Continue(self.leaf_nearest(at, ray, t_min, t_cur, &mut nearest))
-        });
-        nearest.get()
-    }
-
-    /// [`World::closest`] through the 8-wide tree, in a function built for AVX2 so that
-    /// the leaf test's closure, made here, is too: the walk, the closure and the spheres'
-    /// AVX test then build as one (a closure made without AVX2 was called for every
-    /// leaf entry, and called the spheres' test in turn).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    #[inline]
-    fn closest_eight(&self, tree: &wide8::Bvh8, ray: &Ray, t_min: f32, t_max: f32) -> Option<(Hit, u32)> {
-        if !(ray.origin.is_finite() && ray.dir.is_finite()) {
-            return None; // as in `traverse_objects`
-        }
-        let mut nearest = Nearest::default();
-        let mut test = |at, t_cur| Visit::Continue(self.leaf_nearest(at, ray, t_min, t_cur, &mut nearest));
-        tree.start::<true, _>(ray, t_min, t_max, &self.leaves, |range, t_cur| leaf_loop(range, t_cur, &mut test));
+        self.traverse_objects::<true>(
+            ray,
+            t_min,
+            t_max,
+            // Inlined into the walk, built for AVX2 where it is 8-wide, so the spheres' AVX
+            // test is too ([`World::traverse_objects`]).
+            #[inline(always)]
+            |at, t_cur| Visit::Continue(self.leaf_nearest(at, ray, t_min, t_cur, &mut nearest)),
+        );
         nearest.get()
     }
 
@@ -527,25 +512,6 @@ fn leaf_loop(range: std::ops::Range<usize>, mut t_cur: f32, test: &mut impl FnMu
         }
     }
     Visit::Continue(t_cur)
-}
-
-/// The 8-wide walk over `leaves` with its leaf closure made in a function built for AVX2,
-/// whose target features the closure takes: so the walk, the closure and the leaf's
-/// tests ([`leaf_loop`], [`Sphere8`]'s AVX test) are built as one. (A closure made
-/// elsewhere, without AVX2, was called once per leaf, and called in turn a function
-/// built for AVX2: two calls a leaf, 4 % of the sphereflake's sent rays' instructions.)
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline]
-fn walk_avx2<const NEAREST_FIRST: bool>(
-    tree: &wide8::Bvh8,
-    ray: &Ray,
-    t_min: f32,
-    t_max: f32,
-    leaves: &[LeafItem],
-    test: &mut impl FnMut(usize, f32) -> Visit,
-) {
-    tree.start::<NEAREST_FIRST, _>(ray, t_min, t_max, leaves, |range, t_cur| leaf_loop(range, t_cur, test));
 }
 
 #[cfg(test)]

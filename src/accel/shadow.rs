@@ -68,7 +68,6 @@ impl World<'_> {
     /// place of a walk from the root. The answer is the same either way, since it is 0
     /// as soon as one opaque object lies across the segment.
     #[inline]
-    #[allow(unsafe_code)]
     pub fn transmittance_hinted(&self, ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
         if self.flat {
             return self.transmittance_of(0..self.scene.objects.len() as u32, ray, t_max);
@@ -81,39 +80,21 @@ impl World<'_> {
         {
             return 0.0;
         }
-        #[cfg(target_arch = "x86_64")]
-        if let super::WideBvh::Eight(tree) = &self.top4 {
-            // SAFETY: a `Bvh8` exists only where the processor has AVX2.
-            return unsafe { self.transmittance_eight(tree, ray, t_max, blocker) };
-        }
         let mut light = 1.0f64;
-        self.traverse_objects::<false>(ray, 0.0, t_max, |at, _| {
-            if self.leaf_stops_noted(at, ray, t_max, &mut light, blocker) {
-                return Visit::Stop;
-            }
-            // Every object along the whole segment counts, not just the nearest.
-            Visit::Continue(t_max)
-        });
-        light as f32
-    }
-
-    /// [`World::transmittance_hinted`]'s walk through the 8-wide tree, in a function
-    /// built for AVX2 so that its leaf closure, made here, is too and inlines the
-    /// spheres' AVX test (as [`World::closest`] does).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn transmittance_eight(&self, tree: &super::wide8::Bvh8, ray: &Ray, t_max: f32, blocker: &mut LastBlocker) -> f32 {
-        if !(ray.origin.is_finite() && ray.dir.is_finite()) {
-            return 1.0; // as in `traverse_objects`: the walk meets nothing
-        }
-        let mut light = 1.0f64;
-        let mut test = |at, _| {
-            if self.leaf_stops_noted(at, ray, t_max, &mut light, blocker) {
-                return Visit::Stop;
-            }
-            Visit::Continue(t_max)
-        };
-        tree.start::<false, _>(ray, 0.0, t_max, &self.leaves, |range, t| super::leaf_loop(range, t, &mut test));
+        self.traverse_objects::<false>(
+            ray,
+            0.0,
+            t_max,
+            // Inlined into the walk, as in `closest` ([`World::traverse_objects`]).
+            #[inline(always)]
+            |at, _| {
+                if self.leaf_stops_noted(at, ray, t_max, &mut light, blocker) {
+                    return Visit::Stop;
+                }
+                // Every object along the whole segment counts, not just the nearest.
+                Visit::Continue(t_max)
+            },
+        );
         light as f32
     }
 

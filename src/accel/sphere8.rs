@@ -53,8 +53,8 @@ impl Sphere8 {
     }
 
     /// [`Sphere8::intersect`] without asking, pack by pack, whether AVX2 runs: on AVX
-    /// lanes on x86-64, inlined into the 8-wide walk's leaf code
-    /// ([`super::walk_avx2`]) and the light buffers' loops. The check was 1 % of the
+    /// lanes on x86-64, inlined into the 8-wide walk's leaf code (its leaf closures are
+    /// `#[inline(always)]`) and the light buffers' loops. The check was 1 % of the
     /// sphereflake's instructions, and the portable path inlined beside it made the
     /// code round it worse.
     ///
