@@ -643,8 +643,10 @@ fn eight_shadow_rays_through_light_buffers_get_the_answers_of_testing_everything
         let (mut from, mut dirs, mut t_max, mut leaving) = ([[0f32; 8]; 3], [[0f32; 8]; 3], [0f32; 8], [NONE; 8]);
         let live = r.below(256);
         for lane in 0..8 {
-            let (p, object) = match r.below(3) {
-                0 => (v(&mut r, 30.0), NONE),
+            let (p, object) = match r.below(40) {
+                0..=12 => (v(&mut r, 30.0), NONE),
+                // Now and then a lane with no cell: not finite, or at the light itself.
+                13 => ([Vec3::splat(f32::NAN), Vec3::new(1.0, f32::INFINITY, 0.0), at][r.below(3) as usize], NONE),
                 _ => {
                     // Just off a flat object, on the light's side, as shading leaves it.
                     let i = flat[r.below(flat.len() as u32) as usize];
