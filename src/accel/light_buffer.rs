@@ -410,11 +410,7 @@ impl World<'_> {
             visible[lane] = match buffer.list_of(words[lane]) {
                 Some(list) => {
                     debug_assert!(ray.origin.is_finite() && ray.dir.is_finite(), "{ray:?}");
-                    if blocker.0 != u32::MAX && self.hint_stops(&ray, t_max[lane], blocker) {
-                        0.0
-                    } else {
-                        self.list(list, &ray, t_max[lane], blocker, leaving[lane])
-                    }
+                    self.list(list, &ray, t_max[lane], blocker, leaving[lane])
                 }
                 None => self.transmittance_hinted(&ray, t_max[lane], blocker),
             };
@@ -434,9 +430,6 @@ impl World<'_> {
         blocker: &mut LastBlocker,
         leaving: u32,
     ) -> f32 {
-        if blocker.0 != u32::MAX && self.hint_stops(ray, t_max, blocker) {
-            return 0.0;
-        }
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is set only where the processor has AVX2.
@@ -445,10 +438,13 @@ impl World<'_> {
         self.list(list, ray, t_max, blocker, leaving)
     }
 
-    /// The entries of a cell's `list` nearer the light than the ray's origin, against
-    /// the ray, until one stops the light.
+    /// The last blocker, then the entries of a cell's `list` nearer the light than the
+    /// ray's origin, against the ray, until one stops the light.
     #[inline(always)]
     fn list(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker, leaving: u32) -> f32 {
+        if blocker.0 != u32::MAX && self.hint_stops(ray, t_max, blocker) {
+            return 0.0;
+        }
         let limit = t_max * (1.0 + SLACK);
         let mut light = 1.0f64;
         for &(at, near) in list {
