@@ -283,6 +283,12 @@ fn near_distance(p: Vec3, b: &Aabb) -> f32 {
     (b.min - p).max(p - b.max).max(Vec3::ZERO).length()
 }
 
+/// Lane `lane` of three rows of eight (a point or direction of [`ShadowLanes`]).
+#[inline(always)]
+fn lane_of(rows: &[[f32; 8]; 3], lane: usize) -> Vec3 {
+    Vec3::new(rows[0][lane], rows[1][lane], rows[2][lane])
+}
+
 /// Calls `f` with each cell (face, row, column) whose directions from `at` may meet
 /// box `b`.
 fn each_cell(at: Vec3, b: &Aabb, n: usize, mut f: impl FnMut(usize, usize, usize)) {
@@ -368,7 +374,6 @@ impl World<'_> {
     #[inline]
     pub fn transmittance_towards_lanes(&self, light: usize, rays: &ShadowLanes, blocker: &mut LastBlocker) -> [f32; 8] {
         let ShadowLanes { from, dirs, t_max, live, .. } = *rays;
-        let lane_of = |v: &[[f32; 8]; 3], lane: usize| Vec3::new(v[0][lane], v[1][lane], v[2][lane]);
         let mut visible = [0.0; 8];
         let buffer = match self.light_buffers.get(light) {
             Some(Some(buffer)) => buffer,
@@ -402,7 +407,6 @@ impl World<'_> {
     #[inline(always)]
     fn listed_lanes(&self, buffer: &LightBuffer, rays: &ShadowLanes, blocker: &mut LastBlocker) -> [f32; 8] {
         let ShadowLanes { from, dirs, t_max, live, leaving } = *rays;
-        let lane_of = |v: &[[f32; 8]; 3], lane: usize| Vec3::new(v[0][lane], v[1][lane], v[2][lane]);
         let words = buffer.words_of_lanes(from);
         let mut visible = [0.0; 8];
         for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
