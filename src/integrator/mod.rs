@@ -246,6 +246,10 @@ impl<'w, 's> Integrator<'w, 's> {
     /// not nested: what a ray crosses inside one glass object is not looked at.
     #[inline(always)]
     pub fn arriving(&self, weight: Color, ray: &Ray, t: f32, surface: &Surface, index: u32) -> Color {
+        // One test for a scene without absorbing glass, not three per hit.
+        if !self.world.absorbs() {
+            return weight;
+        }
         let material = self.material(index);
         if !material.absorbs() || ray.dir.dot(surface.normal) <= 0.0 {
             return weight;
@@ -322,39 +326,51 @@ impl PackedSurface {
 }
 
 /// The hits of one level of a [`Wave`] that lights may change, eight to a block, lane
-/// by lane (the layout [`towards_lanes`] reads): each one's index in the level, the
-/// object it is on ([`crate::accel::NONE`] in the lanes past the last), where its shadow
-/// rays leave from and the normal lights are judged by.
+/// by lane (the layout [`towards_lanes`] reads): each one's index in the level, and per
+/// block of eight the objects they are on ([`crate::accel::NONE`] in the lanes past the
+/// last), where their shadow rays leave from and the normals lights are judged by.
 #[derive(Clone, Debug, Default)]
 pub struct LightFrames {
     nodes: Vec<u32>,
-    objects: Vec<[u32; 8]>,
-    from: Vec<[[f32; 8]; 3]>,
-    normal: Vec<[[f32; 8]; 3]>,
+    blocks: Vec<FrameBlock>,
+}
+
+/// Eight hits of [`LightFrames`], lane by lane: one block, so that a hit is added with
+/// one bounds check rather than one per array.
+#[derive(Clone, Copy, Debug)]
+pub struct FrameBlock {
+    pub objects: [u32; 8],
+    pub from: [[f32; 8]; 3],
+    pub normal: [[f32; 8]; 3],
+}
+
+impl FrameBlock {
+    const EMPTY: FrameBlock = FrameBlock { objects: [crate::accel::NONE; 8], from: [[0.0; 8]; 3], normal: [[0.0; 8]; 3] };
 }
 
 impl LightFrames {
     pub fn clear(&mut self) {
         self.nodes.clear();
-        self.objects.clear();
-        self.from.clear();
-        self.normal.clear();
+        self.blocks.clear();
     }
 
     #[inline(always)]
     pub fn push(&mut self, node: u32, object: u32, (from, normal): (Vec3, Vec3)) {
         let lane = self.nodes.len() % 8;
         if lane == 0 {
-            self.objects.push([crate::accel::NONE; 8]);
-            self.from.push([[0.0; 8]; 3]);
-            self.normal.push([[0.0; 8]; 3]);
+            self.blocks.push(FrameBlock::EMPTY);
         }
-        self.objects.last_mut().expect("pushed")[lane] = object;
-        let (f, n) = (self.from.last_mut().expect("pushed"), self.normal.last_mut().expect("pushed"));
+        let block = self.blocks.last_mut().expect("pushed");
+        block.objects[lane] = object;
         for (axis, (a, b)) in from.to_array().into_iter().zip(normal.to_array()).enumerate() {
-            (f[axis][lane], n[axis][lane]) = (a, b);
+            (block.from[axis][lane], block.normal[axis][lane]) = (a, b);
         }
         self.nodes.push(node);
+    }
+
+    /// The hits eight at a time: their indices in the level, and their block.
+    pub fn blocks(&self) -> impl Iterator<Item = (&[u32], &FrameBlock)> {
+        self.nodes.chunks(8).zip(&self.blocks)
     }
 }
 

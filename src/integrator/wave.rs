@@ -15,7 +15,7 @@
 //! only on its own sample, and each sample adds its colours in an order fixed by its own
 //! rays, so a pixel's colour does not depend on which other pixels share its wave.
 
-use super::{Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, lane_of, towards_light_lanes};
+use super::{FrameBlock, Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, lane_of, towards_light_lanes};
 use crate::accel::{LastBlocker, NONE, ShadowLanes, World};
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
@@ -110,6 +110,7 @@ impl Wave {
         frames.clear();
         // Boxes round the hits only where the world can use them to cull shadow rays.
         let culls = world.culls() && !integrator.one_sided;
+        let absorbs = world.absorbs();
         // Hits come in runs on one object: each run's box is grown on its own, then merged.
         let mut run: Option<(u32, Aabb)> = None;
         for (k, (ray, found)) in level.iter().enumerate() {
@@ -121,7 +122,9 @@ impl Wave {
             let surface = integrator.surface(ray, hit, *index);
             surfaces.push(surface);
             let surface = surface.get();
-            paths[k].0 = integrator.arriving(paths[k].0, ray, hit.t, &surface, *index);
+            if absorbs {
+                paths[k].0 = integrator.arriving(paths[k].0, ray, hit.t, &surface, *index);
+            }
             let s = integrator.shading(ray, &surface, *index);
             shading.push(s);
             if !s.lit {
@@ -131,7 +134,8 @@ impl Wave {
             if !culls {
                 continue;
             }
-            let p = ray.at(hit.t);
+            // The box holds where the shadow rays start.
+            let p = s.from;
             match &mut run {
                 Some((o, b)) if o == index => *b = b.grow(p),
                 _ => {
@@ -152,8 +156,7 @@ impl Wave {
             let blockers = culled.then_some(&blockers[..]);
             // What blocked the last of this light's shadow rays, to try first.
             let mut last = LastBlocker::default();
-            let lanes = frames.nodes.chunks(8).zip(&frames.objects).zip(&frames.from).zip(&frames.normal);
-            for (((nodes, objects), from), normal) in lanes {
+            for (nodes, FrameBlock { objects, from, normal }) in frames.blocks() {
                 let seen = towards_light_lanes(light, from, normal);
                 // Every lane's falloff, then those of the lanes lit from the front (the
                 // others' is 0): without a branch a lane, for the lanes to go together.
