@@ -124,9 +124,9 @@ impl World<'_> {
     /// The objects that could stand between a point of the boxes `from` and the point
     /// `light`, in index order, into `blockers`; `false` (and `blockers` unusable) when
     /// that would not pay or cannot be bounded, as in [`World::seen_from`]. `from` pairs
-    /// an object with a box round points on it (the hits of an image tile): shadow
-    /// rays leave from those points, pushed off the surface towards the light, and
-    /// then test only the objects found here, with [`World::transmittance_among`].
+    /// an object with a box round the points its shadow rays leave from (just off its
+    /// hits in an image tile, on the side the rays came from), which then test only the
+    /// objects found here, with [`World::transmittance_among`].
     ///
     /// Two conservative tests, in f64 with margins of 1e-3 (relative) that cover the
     /// rounding of the f32 ones. A quad is passed over when the light and every point

@@ -42,7 +42,8 @@ pub struct Wave {
     paths: Vec<(Color, u32)>,
     surfaces: Vec<PackedSurface>,
     shading: Vec<Shading>,
-    /// Per object hit where lights may change the colour, a box round those hits.
+    /// Per object hit where lights may change the colour, a box round the points those
+    /// hits send their shadow rays from.
     boxes: Vec<(u32, Aabb)>,
     frames: LightFrames,
     /// Objects that may shadow the level's hits from one light.
