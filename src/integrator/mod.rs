@@ -345,7 +345,8 @@ pub struct FrameBlock {
 }
 
 impl FrameBlock {
-    const EMPTY: FrameBlock = FrameBlock { objects: [crate::accel::NONE; 8], from: [[0.0; 8]; 3], normal: [[0.0; 8]; 3] };
+    const EMPTY: FrameBlock =
+        FrameBlock { objects: [crate::accel::NONE; 8], from: [[0.0; 8]; 3], normal: [[0.0; 8]; 3] };
 }
 
 impl LightFrames {

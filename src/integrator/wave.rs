@@ -15,7 +15,9 @@
 //! only on its own sample, and each sample adds its colours in an order fixed by its own
 //! rays, so a pixel's colour does not depend on which other pixels share its wave.
 
-use super::{FrameBlock, Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, lane_of, towards_light_lanes};
+use super::{
+    FrameBlock, Integrator, LightFrames, PackedSurface, Path, RayStats, Shading, lane_of, towards_light_lanes,
+};
 use crate::accel::{LastBlocker, NONE, ShadowLanes, World};
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
