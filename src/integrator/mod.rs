@@ -160,7 +160,7 @@ impl<'w, 's> Integrator<'w, 's> {
                     if falloff > 0.0 {
                         stats.shadow += 1;
                         let visible = self.world.transmittance_color(&Ray { origin: shading.from, dir: l }, distance);
-                        self.add_light(&mut shading, material, p.ray.dir, (l, n_dot_l, visible * falloff), light);
+                        self.add_light(&mut shading, material, p.ray.dir, (l, n_dot_l, visible * falloff), light.color());
                     }
                 }
             }
@@ -206,7 +206,8 @@ impl<'w, 's> Integrator<'w, 's> {
     /// Step two, once per light in front of the surface: its diffuse term and highlight,
     /// given its unit direction `l`, the cosine `n_dot_l` (positive) and the share of it
     /// that reaches the surface (`visible`: what its shadow ray lets through, coloured
-    /// by absorbing glass, times the light's falloff: [`Light::falloff`]).
+    /// by absorbing glass, times the light's falloff: [`Light::falloff`]), and the
+    /// light's colour ([`Light::color`], taken once per light by the caller).
     #[inline(always)]
     pub fn add_light(
         &self,
@@ -214,16 +215,16 @@ impl<'w, 's> Integrator<'w, 's> {
         material: &Material,
         view: Vec3,
         (l, n_dot_l, visible): (Vec3, f32, Color),
-        light: &Light,
+        light_color: Color,
     ) {
         if visible == Color::ZERO {
             return;
         }
-        shading.diffuse += (visible * material.diffuse * n_dot_l) * shading.base * light.color();
+        shading.diffuse += (visible * material.diffuse * n_dot_l) * shading.base * light_color;
         if material.specular > 0.0 {
             let r_dot_v = reflect(-l, shading.n).dot(-view);
             if r_dot_v > 0.0 {
-                shading.specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light.color();
+                shading.specular += (visible * material.specular * r_dot_v.powf(material.shininess)) * light_color;
             }
         }
     }

@@ -159,6 +159,7 @@ impl Wave {
             let blockers = culled.then_some(&blockers[..]);
             // What blocked the last of this light's shadow rays, to try first.
             let mut last = LastBlocker::default();
+            let color = light.color();
             for (nodes, FrameBlock { objects, from, normal }) in frames.blocks() {
                 let seen = towards_light_lanes(light, from, normal);
                 // Every lane's falloff, then those of the lanes lit from the front (the
@@ -172,11 +173,11 @@ impl Wave {
                 let leaving = if integrator.one_sided { [NONE; 8] } else { *objects };
                 let rays = ShadowLanes { from, dirs: &seen.l, t_max: seen.distance, live, leaving };
                 let visible = visible_lanes(world, index, blockers, &rays, &mut last);
+                stats.shadow += u64::from(live.count_ones());
                 for (lane, &k) in nodes.iter().enumerate() {
                     if live >> lane & 1 == 0 {
                         continue; // the light is behind the surface
                     }
-                    stats.shadow += 1;
                     let material = integrator.material(objects[lane]);
                     let l = lane_of(&seen.l, lane);
                     // Through absorbing glass the light takes its colour, ray by ray.
@@ -187,7 +188,7 @@ impl Wave {
                         }
                     };
                     let lit = (l, seen.n_dot_l[lane], visible * falloff[lane]);
-                    integrator.add_light(&mut shading[k as usize], material, level[k as usize].0.dir, lit, light);
+                    integrator.add_light(&mut shading[k as usize], material, level[k as usize].0.dir, lit, color);
                 }
             }
         }
