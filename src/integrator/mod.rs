@@ -160,7 +160,13 @@ impl<'w, 's> Integrator<'w, 's> {
                     if falloff > 0.0 {
                         stats.shadow += 1;
                         let visible = self.world.transmittance_color(&Ray { origin: shading.from, dir: l }, distance);
-                        self.add_light(&mut shading, material, p.ray.dir, (l, n_dot_l, visible * falloff), light.color());
+                        self.add_light(
+                            &mut shading,
+                            material,
+                            p.ray.dir,
+                            (l, n_dot_l, visible * falloff),
+                            light.color(),
+                        );
                     }
                 }
             }
