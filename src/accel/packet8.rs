@@ -85,9 +85,10 @@ fn store_u32(v: __m256i) -> [u32; 8] {
 }
 
 impl Best8 {
-    /// Keeps, in the lanes of `hit` (a bit mask), distance, coordinates (`[t, u, v]`)
-    /// and part (`part(lane)`) of object `index`. A vector at a time: written lane by
-    /// lane, the distances stalled the next object's test, which loads them whole.
+    /// Keeps, in the lanes of `hit` (a bit mask), distance, coordinates (`[t, u, v]`),
+    /// part (`part`, lane by lane) and primitive 0 of object `index`. A vector at a
+    /// time: written lane by lane, the distances stalled the next object's test, which
+    /// loads them whole.
     #[target_feature(enable = "avx2")]
     fn take_lanes(&mut self, hit: u32, [t, u, v]: [Avx8; 3], part: [u8; 8], index: u32) {
         if hit == 0 {
