@@ -26,7 +26,8 @@ pub(super) struct LightBuffer {
     /// `entries` (above [`LEN_BITS`]) and how long it is (below), [`CROWDED`] where more
     /// than [`MAX_LIST`] entries lie in its directions: its rays walk the tree instead.
     cells: Vec<u32>,
-    /// The lists: (leaf entry, its box's distance from the light).
+    /// The lists: (leaf entry, its box's distance from the light). The cells that list
+    /// one entry alone share one place for it.
     entries: Vec<(u32, f32)>,
 }
 
@@ -43,9 +44,13 @@ const _: () = assert!(MAX_LIST < CROWDED);
 
 const EMPTY_FACE: u32 = u32::MAX;
 
-/// Entries over all cells a light's buffer may hold (eight bytes each, 4 MiB): a light
-/// whose buffer would hold more has none. With [`MAX_LIGHTS`], memory for buffers stays
-/// under 40 MiB however many lights a scene has.
+/// A cell's word, while its buffer is built, where it lists one entry alone.
+const ALONE: u32 = u32::MAX << LEN_BITS;
+
+/// Entries over all cells a light's buffer may hold (eight bytes each, 4 MiB), besides
+/// the shared places of lone entries (at most one per leaf entry): a light whose buffer
+/// would hold more has none. With [`MAX_LIGHTS`], memory for buffers stays bounded
+/// however many lights a scene has.
 const MAX_ENTRIES: usize = 1 << 19;
 const _: () = assert!(MAX_ENTRIES < 1 << (32 - LEN_BITS));
 
@@ -93,6 +98,11 @@ impl LightBuffer {
     /// side; `None` where it would hold more than [`MAX_ENTRIES`] or where more of its
     /// cells would be crowded than listed.
     pub(super) fn build(at: Vec3, boxes: &[Aabb], n: usize) -> Option<LightBuffer> {
+        // Shared places come after the lists: each start, up to MAX_ENTRIES plus one per
+        // entry, fits its word below ALONE.
+        if MAX_ENTRIES + boxes.len() >= (ALONE >> LEN_BITS) as usize {
+            return None;
+        }
         // Entries nearest the light first, so each cell's list comes out in that order.
         let mut order: Vec<(f32, u32)> =
             boxes.iter().enumerate().map(|(i, b)| (near_distance(at, b), i as u32)).collect();
@@ -128,15 +138,22 @@ impl LightBuffer {
         for &(_, i) in order {
             each_cell(at, &boxes[i as usize], n, |face, u, v| cells[cell_of(face, u, v)] += 1);
         }
+        // Cells that list one entry alone (a floor past everything else, as the light
+        // sees it) are marked [`ALONE`] here and share one place per entry, given as the
+        // lists are filled: one place for all of them, not a copy per cell.
         let (mut sum, mut crowded, mut listed) = (0usize, 0usize, 0usize);
         for cell in cells.iter_mut() {
             let count = *cell;
-            *cell = match count > MAX_LIST {
-                true => {
+            *cell = match count {
+                _ if count > MAX_LIST => {
                     crowded += 1;
                     (sum as u32) << LEN_BITS | CROWDED
                 }
-                false => {
+                1 => {
+                    listed += 1;
+                    ALONE
+                }
+                _ => {
                     listed += (count != 0) as usize;
                     let start = sum as u32;
                     sum += count as usize;
@@ -152,15 +169,30 @@ impl LightBuffer {
             return Err(Unfit::Crowded);
         }
         let mut entries = vec![(0u32, 0f32); sum];
+        // Room for the shared places, so that none moves the lists (for a big array the
+        // room is only reserved address space until used).
+        entries.reserve_exact(boxes.len());
+        // Per entry, its shared place, once it has one.
+        let mut alone: Vec<u32> = vec![];
         for &(near, i) in order {
             each_cell(at, &boxes[i as usize], n, |face, u, v| {
                 let cell = &mut cells[cell_of(face, u, v)];
-                if *cell & LEN_MASK != CROWDED {
+                if *cell == ALONE {
+                    if alone.is_empty() {
+                        alone.resize(boxes.len(), ALONE);
+                    }
+                    if alone[i as usize] == ALONE {
+                        alone[i as usize] = entries.len() as u32;
+                        entries.push((i, near));
+                    }
+                    *cell = alone[i as usize] << LEN_BITS | 1;
+                } else if *cell & LEN_MASK != CROWDED {
                     entries[((*cell >> LEN_BITS) + (*cell & LEN_MASK)) as usize] = (i, near);
                     *cell += 1;
                 }
             });
         }
+        entries.shrink_to_fit();
         Ok(LightBuffer { at, n, faces, cells, entries })
     }
 
@@ -479,5 +511,50 @@ impl World<'_> {
     #[inline(always)]
     fn flat_and(&self, at: usize, object: u32) -> bool {
         matches!(self.leaves[at], LeafItem::Inline(Inline::Quad(_) | Inline::Triangle(_), i) if i == object)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each cell lists what lies in its directions, nearest the light first, whether its
+    /// list has a place of its own or shares one (a floor under a few boxes is alone in
+    /// most of the cells below the light): the same lists as placing every entry in
+    /// every cell it covers, one copy each, in far fewer entries.
+    #[test]
+    fn cells_list_their_entries_in_order_with_lone_entries_shared() {
+        let at = Vec3::new(0.3, 0.2, 4.0);
+        let mut boxes = vec![Aabb { min: Vec3::new(-20.0, -20.0, -0.5), max: Vec3::new(20.0, 20.0, -0.5) }];
+        for k in 0..80 {
+            let c = Vec3::new((k % 9) as f32 - 4.0, (k / 9) as f32 - 4.0, (k % 5) as f32 * 0.4);
+            boxes.push(Aabb { min: c - Vec3::splat(0.2), max: c + Vec3::splat(0.2) });
+        }
+        let n = 32;
+        let buffer = LightBuffer::build(at, &boxes, n).expect("a buffer");
+        // The lists as placing each entry in each cell it covers makes them.
+        let mut order: Vec<(f32, u32)> =
+            boxes.iter().enumerate().map(|(i, b)| (near_distance(at, b), i as u32)).collect();
+        order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut want = vec![vec![]; 6 * n * n];
+        for &(near, i) in &order {
+            each_cell(at, &boxes[i as usize], n, |face, u, v| want[(face * n + u) * n + v].push((i, near)));
+        }
+        let (mut alone, mut copies) = (0, 0);
+        for face in 0..6 {
+            for cell in 0..n * n {
+                let want = &want[face * n * n + cell];
+                let got = match buffer.faces[face] {
+                    EMPTY_FACE => &[][..],
+                    base => buffer.list_of(buffer.cells[base as usize + cell]).expect("no crowded cell here"),
+                };
+                assert_eq!(got, &want[..], "face {face}, cell {cell}");
+                alone += (want.len() == 1) as usize;
+                copies += want.len();
+            }
+        }
+        // Without sharing, the entries would be the copies.
+        assert!(alone > 1000, "{alone} cells list one entry");
+        assert!(buffer.entries.len() <= copies - alone + boxes.len(), "{} entries for {copies}", buffer.entries.len());
     }
 }
