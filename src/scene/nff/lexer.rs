@@ -222,13 +222,13 @@ impl<R: BufRead> Lexer<R> {
             }
             at = self.pos;
         }
-        let line = &self.buf[..self.end];
-        let start = at;
-        while at < line.len() && !line[at].is_ascii_whitespace() {
-            at += 1;
+        // Read in the one pass that finds the token's end: the number must end it.
+        let line = &self.buf[at..self.end];
+        let (x, len) = number_prefix(line)?;
+        if line.get(len).is_some_and(|c| !c.is_ascii_whitespace()) {
+            return None;
         }
-        let x = fast_f32(&line[start..at])?;
-        self.pos = at;
+        self.pos = at + len;
         Some(x)
     }
 
@@ -261,14 +261,23 @@ pub(super) const POW10: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8
 /// (`None`) goes to `str::parse`.
 #[inline(always)]
 pub(super) fn fast_f32(w: &[u8]) -> Option<f32> {
+    number_prefix(w).and_then(|(x, len)| (len == w.len()).then_some(x))
+}
+
+/// [`fast_f32`] of the number `w` starts with, and how many bytes it takes: `None` if
+/// it starts with none the fast path reads, whatever follows.
+#[inline(always)]
+fn number_prefix(w: &[u8]) -> Option<(f32, usize)> {
     let (negative, mut i) = match w.first()? {
         b'-' => (true, 1),
         b'+' => (false, 1),
         _ => (false, 0),
     };
     let (mut m, mut exp, mut digits) = (0u32, 0i32, 0);
+    // The mantissa only grows, so it fails as soon as it passes 2^24 (and, at most ten
+    // times that plus nine, cannot overflow first).
     let mut digit = |c: u8, m: &mut u32| -> Option<()> {
-        *m = m.checked_mul(10)?.checked_add((c - b'0') as u32)?;
+        *m = *m * 10 + (c - b'0') as u32;
         digits += 1;
         (*m <= 1 << 24).then_some(())
     };
@@ -311,9 +320,9 @@ pub(super) fn fast_f32(w: &[u8]) -> Option<f32> {
         }
         exp += sign * e;
     }
-    if i != w.len() || !(-10..=10).contains(&exp) {
+    if !(-10..=10).contains(&exp) {
         return None;
     }
     let x = if exp >= 0 { m as f32 * POW10[exp as usize] } else { m as f32 / POW10[(-exp) as usize] };
-    Some(if negative { -x } else { x })
+    Some((if negative { -x } else { x }, i))
 }

@@ -210,6 +210,8 @@ fn errors_name_line_column_and_command() {
         ("s 0 0 0\ns 1 1 1 1\n", v + 1, 1, "s", "before `s` on line"),
         ("s 0 0 0 1 2\n", v + 1, 11, "s", "more numbers after `s`"),
         ("s 0 0 x 1\n", v + 1, 7, "s", "\"x\" is not a number"),
+        ("s 0 0 1.5x 1\n", v + 1, 7, "s", "\"1.5x\" is not a number"),
+        ("s 0 0 2e1.5 1\n", v + 1, 7, "s", "\"2e1.5\" is not a number"),
         ("s 0 0 nan 1\n", v + 1, 7, "s", "not a finite number"),
         ("s 0 0 1e39 1\n", v + 1, 7, "s", "not a finite number"),
         ("q 1 2 3\n", v + 1, 1, "q", "unknown NFF command"),
