@@ -47,10 +47,9 @@ const EMPTY_FACE: u32 = u32::MAX;
 /// A cell's word, while its buffer is built, where it lists one entry alone.
 const ALONE: u32 = u32::MAX << LEN_BITS;
 
-/// Entries over all cells a light's buffer may hold (eight bytes each, 4 MiB), besides
-/// the shared places of lone entries (at most one per leaf entry): a light whose buffer
-/// would hold more has none. With [`MAX_LIGHTS`], memory for buffers stays bounded
-/// however many lights a scene has.
+/// Entries over all cells a light's buffer may hold, shared places included (eight
+/// bytes each, 4 MiB): a light whose buffer would hold more has none. With
+/// [`MAX_LIGHTS`], memory for buffers stays under 40 MiB however many lights a scene has.
 const MAX_ENTRIES: usize = 1 << 19;
 const _: () = assert!(MAX_ENTRIES < 1 << (32 - LEN_BITS));
 
@@ -191,6 +190,10 @@ impl LightBuffer {
                     *cell += 1;
                 }
             });
+        }
+        // The shared places count against the same bound as the lists.
+        if entries.len() > MAX_ENTRIES {
+            return Err(Full);
         }
         entries.shrink_to_fit();
         Ok(LightBuffer { at, n, faces, cells, entries })
