@@ -133,32 +133,50 @@ impl LightBuffer {
         // Count each cell's entries, then give each its place, in the same array (a
         // second one as big was a fifth of the buffers' fresh memory, each page of which
         // a new process pays a page fault for).
+        // Each entry's rows of cells counted by their ends (+1 at its first column, -1
+        // past its last), so that a running sum along a row gives each cell's count: a
+        // few words an entry rather than one a cell (a floor covers whole faces).
         let mut cells = vec![0u32; used as usize];
         for &(_, i) in order {
-            each_cell(at, &boxes[i as usize], n, |face, u, v| cells[cell_of(face, u, v)] += 1);
+            each_range(at, &boxes[i as usize], n, |face, us, vs| {
+                let (v0, v1) = (*vs.start(), *vs.end());
+                if v0 > v1 {
+                    return;
+                }
+                for u in us {
+                    let row = cell_of(face, u, 0);
+                    cells[row + v0] = cells[row + v0].wrapping_add(1);
+                    if v1 + 1 < n {
+                        cells[row + v1 + 1] = cells[row + v1 + 1].wrapping_sub(1);
+                    }
+                }
+            });
         }
         // Cells that list one entry alone (a floor past everything else, as the light
         // sees it) are marked [`ALONE`] here and share one place per entry, given as the
         // lists are filled: one place for all of them, not a copy per cell.
         let (mut sum, mut crowded, mut listed) = (0usize, 0usize, 0usize);
-        for cell in cells.iter_mut() {
-            let count = *cell;
-            *cell = match count {
-                _ if count > MAX_LIST => {
-                    crowded += 1;
-                    (sum as u32) << LEN_BITS | CROWDED
-                }
-                1 => {
-                    listed += 1;
-                    ALONE
-                }
-                _ => {
-                    listed += (count != 0) as usize;
-                    let start = sum as u32;
-                    sum += count as usize;
-                    start << LEN_BITS
-                }
-            };
+        for row in cells.chunks_mut(n) {
+            let mut count = 0u32;
+            for cell in row {
+                count = count.wrapping_add(*cell);
+                *cell = match count {
+                    _ if count > MAX_LIST => {
+                        crowded += 1;
+                        (sum as u32) << LEN_BITS | CROWDED
+                    }
+                    1 => {
+                        listed += 1;
+                        ALONE
+                    }
+                    _ => {
+                        listed += (count != 0) as usize;
+                        let start = sum as u32;
+                        sum += count as usize;
+                        start << LEN_BITS
+                    }
+                };
+            }
         }
         // Too many entries, or too many crowded cells for the buffer to pay.
         if sum > MAX_ENTRIES {
