@@ -259,21 +259,35 @@ impl<'s> World<'s> {
             }
         };
         let mut top4 = if top.nodes.is_empty() { WideBvh::default() } else { wide(&top, width) };
-        let mut leaves = Vec::new();
-        let mut boxes: Vec<crate::math::Aabb> = Vec::new();
         let bound = |ids: &mut dyn Iterator<Item = u32>| {
             ids.fold(crate::math::Aabb::EMPTY, |b, i| b.union(scene.objects[i as usize].shape.bounds()))
         };
         // Packs of eight only where the 8-wide walk (built for AVX2) tests them.
         let pack = if top4.width() == 8 { 8 } else { 4 };
+        let sphere = |i: u32| match &scene.objects[i as usize].shape {
+            Shape::Sphere(s) => Some((*s, i)),
+            _ => None,
+        };
+        // The entries counted first, so that their lists are filled without growing
+        // (each growth copied them into fresh memory, faulted in page by page).
+        let entries: usize = top
+            .nodes
+            .iter()
+            .filter(|n| n.is_leaf())
+            .map(|n| {
+                let ids = &top.indices[n.first as usize..(n.first + n.count) as usize];
+                let round = ids.iter().filter(|&&i| sphere(i).is_some()).count();
+                round.div_ceil(pack) + ids.len() - round
+            })
+            .sum();
+        let mut leaves = Vec::with_capacity(entries);
+        let mut boxes: Vec<crate::math::Aabb> = Vec::with_capacity(entries);
+        let mut round = Vec::new();
         top4.map_leaves(|first, count| {
             let start = leaves.len() as u32;
             let ids = &top.indices[first as usize..(first + count) as usize];
-            let sphere = |i: u32| match &scene.objects[i as usize].shape {
-                Shape::Sphere(s) => Some((*s, i)),
-                _ => None,
-            };
-            let round: Vec<_> = ids.iter().filter_map(|&i| sphere(i)).collect();
+            round.clear();
+            round.extend(ids.iter().filter_map(|&i| sphere(i)));
             for chunk in round.chunks(pack) {
                 boxes.push(bound(&mut chunk.iter().map(|&(_, i)| i)));
                 leaves.push(match pack {
@@ -290,6 +304,7 @@ impl<'s> World<'s> {
             }));
             (start, leaves.len() as u32 - start)
         });
+        debug_assert_eq!(leaves.len(), entries, "every leaf's entries counted");
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
         let leaves = crate::pages::on_huge_pages(leaves);
         let avx2 = lanes::avx2();
