@@ -289,7 +289,8 @@ fn color(args: &RenderArgs, scene: &Scene) -> ColorEncoding {
     args.color.as_deref().and_then(ColorEncoding::parse).unwrap_or(scene.settings.color)
 }
 
-/// A renderer of `scene` with the command line's size, sampling and threads.
+/// A renderer of `scene` with the command line's size and sampling; its threads are
+/// those of the pool [`render`] runs on.
 fn renderer<'s>(args: &RenderArgs, scene: &'s Scene) -> Result<Renderer<'s>, String> {
     let mut renderer = Renderer::new(scene).map_err(|e| e.to_string())?;
     let camera = (scene.camera.width, scene.camera.height);
@@ -301,9 +302,6 @@ fn renderer<'s>(args: &RenderArgs, scene: &'s Scene) -> Result<Renderer<'s>, Str
     if let Some(d) = args.depth {
         renderer = renderer.max_depth(d);
     }
-    if let Some(t) = args.threads {
-        renderer = renderer.threads(t as usize);
-    }
     if args.spd_rules {
         renderer = renderer.spd_rules();
     }
@@ -313,7 +311,17 @@ fn renderer<'s>(args: &RenderArgs, scene: &'s Scene) -> Result<Renderer<'s>, Str
     Ok(renderer)
 }
 
+/// Renders on a pool of `--threads` threads (all cores by default), made once: the
+/// scene's reading (a big NFF file in chunks), the build and the render share it.
 fn render(args: RenderArgs) -> Result<(), String> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads.map_or(0, |t| t as usize))
+        .build()
+        .map_err(|e| format!("cannot start the worker threads: {e}"))?;
+    pool.install(|| render_on_pool(args))
+}
+
+fn render_on_pool(args: RenderArgs) -> Result<(), String> {
     let stem = args
         .scene
         .as_deref()
