@@ -5,7 +5,8 @@
 //! Reading: whitespace-separated tokens, which may run over several lines (the spec's
 //! `c` takes 3 lines, SPD writes it on one), `#` to the end of a line is a comment. The
 //! file streams through one reused buffer of a chunk of lines, so size is limited by
-//! the scene's memory, not the file's. Every error names the file, line, column and the
+//! the scene's memory, not the file's; a big file is read in parts on several threads
+//! at once, each streaming its own, with the same result (`chunks`). Every error names the file, line, column and the
 //! command at fault, as in `balls.nff:12:1: s: expected 4 numbers (x y z radius), found 3 ...`:
 //! unknown commands, too few or too many numbers, values that are not (finite)
 //! numbers, vertex counts that do not match the vertices, impossible views, materials
@@ -45,6 +46,7 @@ use std::fmt;
 use std::io::BufRead;
 use std::path::Path;
 
+mod chunks;
 mod lexer;
 
 use lexer::{Cmd, Lexer, Tok, is_keyword, parse_f32, show};
@@ -87,8 +89,20 @@ pub const MAX_POLYGON_VERTICES: u64 = 1_000_000;
 pub fn load_nff(path: &Path) -> Result<Nff, SceneError> {
     let name = path.display().to_string();
     let file = super::limits::open_regular(path, "scene")?;
+    // A big file in chunks, one a thread (of the current rayon pool), where that gives
+    // what one pass gives (see `chunks`); else, and for every error, in one pass.
+    let len = file.metadata().map_or(0, |m| m.len());
+    let chunks = (len / CHUNK_BYTES).min(rayon::current_num_threads() as u64) as usize;
+    if chunks > 1
+        && let Some(nff) = chunks::read_chunked(path, &name, len, chunks)
+    {
+        return nff;
+    }
     read_nff(std::io::BufReader::with_capacity(1 << 16, file), &name)
 }
+
+/// Bytes of a file per chunk at least, for [`load_nff`] to read it in chunks.
+const CHUNK_BYTES: u64 = 1 << 17;
 
 /// Reads NFF text; `name` is used in messages.
 pub fn read_nff(input: impl BufRead, name: &str) -> Result<Nff, SceneError> {
@@ -203,6 +217,10 @@ struct Parser<'a, R> {
     crossing: Tally,
     shares: Tally,
     no_material: Tally,
+    /// Per material made, in order: its `f` line's numbers (none for the white one
+    /// made for objects before any `f`), its line, and whether it had to be changed
+    /// (`shares`): what [`chunks`] needs to number one chunk's materials after another's.
+    made: Vec<(Option<[u32; 8]>, usize, bool)>,
 }
 
 type Res<T> = Result<T, SceneError>;
@@ -232,6 +250,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
             crossing: Tally::default(),
             shares: Tally::default(),
             no_material: Tally::default(),
+            made: Vec::new(),
         }
     }
 
@@ -464,6 +483,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
         if changed {
             self.shares.add(e.line);
         }
+        self.made.push((Some(key), e.line, changed));
         self.materials.push(material);
         let id = MaterialId(self.materials.len() as u32 - 1);
         self.material_ids.insert(key, id);
@@ -478,6 +498,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
         }
         self.no_material.add(e.line);
         let (m, _) = nff_material(Color::ONE, 1.0, 0.0, 0.0, 0.0, 1.0);
+        self.made.push((None, e.line, false));
         self.materials.push(m);
         let id = MaterialId(self.materials.len() as u32 - 1);
         self.current = Some(id);

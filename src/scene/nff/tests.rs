@@ -319,3 +319,72 @@ fn binary_junk_is_an_unknown_command() {
         e => panic!("{e}"),
     }
 }
+
+/// `text` in a file of its own, read in `chunks` chunks where that path answers.
+fn read_in_chunks(text: &str, chunks: usize) -> Option<Result<Nff, SceneError>> {
+    static FILES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let k = FILES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let path = std::env::temp_dir().join(format!("whitted-chunks-{}-{k}.nff", std::process::id()));
+    std::fs::write(&path, text).unwrap();
+    let got = super::chunks::read_chunked(&path, "t.nff", text.len() as u64, chunks);
+    std::fs::remove_file(&path).unwrap();
+    got
+}
+
+/// Entities of every kind, materials met again in later chunks, objects whose material
+/// comes from a chunk before, a material's few parallelograms cut apart, warnings past
+/// the first chunk: read in 2 to 12 chunks, the same scene, counts and warnings as in
+/// one pass, to the bit.
+#[test]
+fn a_file_read_in_chunks_is_what_one_pass_reads() {
+    let square = |x: f32| format!("p 4 {x} 0 0 {} 0 0 {} 1 0 {x} 1 0\n", x + 1.0, x + 1.0);
+    let mut text = format!("# chunks\n{VIEW}l 1 2 3\nf 1 0 0 0.5 0.5 3.0827 0 1\n");
+    for k in 0..40 {
+        let x = k as f32 * 0.37;
+        text += &format!("s {x} 0 0 0.25\nc {x} 1 0 0.2 {x} 2 0 0.1\nc {x} 0 1 0.3\n {x} 0 2 0.3\n");
+        text += &format!("pp 3\n{x} 0 1 0 0 1\n{} 0 1 0 0 1\n{x} 1 1 0.6 0 0.8\n", x + 1.0);
+        match k % 8 {
+            0 => text += "f 1 1 1 0 0.1 100000 0.9 1.5\n",
+            1 => text += &square(x),
+            // A material changed to fit (Ks + T > 1), first met past the middle.
+            2 if k > 20 => text += &format!("f 0.2 0.4 0.6 0.5 0.7 20 0.6 1.3\ns {x} 5 0 0\nl {x} 9 9 0.5 0.5 0.5\n"),
+            3 => text += &format!("f 1 0 0 0.5 0.5 3.0827 0 1\nb 0.1 0.2 {}\n", k as f32 / 100.0),
+            4 => text += &format!("p 3 {x} 0 0 {x} 0 0 {x} 0 0\nf 0 1 0 1 0 0 0 0\n{}", square(x)),
+            5 => text += &format!("p 5 0 0 {x} 2 0 {x} 1 1 {x} 2 2 {x} 0 2 {x}\n"),
+            _ => {}
+        }
+    }
+    let one = read(&text).unwrap();
+    assert!(one.warnings.len() >= 3, "{:?}", one.warnings);
+    let mut joined = 0;
+    for chunks in 2..=12 {
+        if let Some(got) = read_in_chunks(&text, chunks) {
+            assert_eq!(format!("{:?}", got.unwrap()), format!("{one:?}"), "{chunks} chunks");
+            joined += 1;
+        }
+    }
+    assert!(joined >= 10, "read in chunks {joined} times of 11");
+}
+
+/// Where joining chunks could not give what one pass gives, the chunked path gives no
+/// answer, and the caller reads the file in one pass.
+#[test]
+fn chunks_give_way_to_one_pass_where_they_would_differ() {
+    let filler = "s 0 0 0 1\n".repeat(400);
+    // An error in a later chunk (its message names a line only one pass counts).
+    let text = format!("{VIEW}f 1 1 1 1 0 0 0 0\n{filler}s 1 2 3\n{filler}");
+    assert!(read_in_chunks(&text, 2).is_none());
+    assert!(read(&text).is_err());
+    // A second view, and a later chunk's objects with no `f` and no object before them
+    // (the white material is made for the first object of the file).
+    let comments = "# nothing\n".repeat(800);
+    for text in [format!("{VIEW}f 1 1 1 1 0 0 0 0\n{filler}{VIEW}{filler}"), format!("{VIEW}{comments}{filler}")] {
+        assert!(read_in_chunks(&text, 2).is_none());
+    }
+    // Objects before any `f` in the first chunk, whose white material the next chunk's
+    // objects keep until an `f`: joined.
+    for text in [format!("{VIEW}{filler}{filler}"), format!("{VIEW}s 0 0 0 1\n{filler}f 1 1 1 1 0 0 0 0\n{filler}")] {
+        let got = read_in_chunks(&text, 2).expect("joined").unwrap();
+        assert_eq!(format!("{got:?}"), format!("{:?}", read(&text).unwrap()));
+    }
+}
