@@ -132,10 +132,10 @@ impl LightBuffer {
         let cell_of = |face: usize, u: usize, v: usize| faces[face] as usize + u * n + v;
         // Count each cell's entries, then give each its place, in the same array (a
         // second one as big was a fifth of the buffers' fresh memory, each page of which
-        // a new process pays a page fault for).
-        // Each entry's rows of cells counted by their ends (+1 at its first column, -1
-        // past its last), so that a running sum along a row gives each cell's count: a
-        // few words an entry rather than one a cell (a floor covers whole faces).
+        // a new process pays a page fault for). An entry's rows are counted by their ends
+        // (+1 at its first column, -1 past its last), so that a running sum along a row
+        // gives each cell's count: a few words an entry rather than one a cell (a floor
+        // covers whole faces).
         let mut cells = vec![0u32; used as usize];
         for &(_, i) in order {
             each_range(at, &boxes[i as usize], n, |face, us, vs| {

@@ -45,30 +45,19 @@ pub(super) fn read_chunked(path: &Path, name: &str, len: u64, chunks: usize) -> 
 fn cuts(path: &Path, len: u64, chunks: usize) -> Option<Vec<u64>> {
     let mut file = File::open(path).ok()?;
     let mut cuts = vec![0];
-    let mut window = vec![0; WINDOW];
+    let mut window = Vec::with_capacity(WINDOW);
     for k in 1..chunks as u64 {
         // From the byte before the aim, so that a line starting at the aim is found.
         let from = (len * k / chunks as u64).saturating_sub(1).max(*cuts.last().expect("0 is first"));
         file.seek(SeekFrom::Start(from)).ok()?;
-        let n = read_up_to(&mut file, &mut window).ok()?;
-        if let Some(at) = entity_line(&window[..n]) {
+        window.clear();
+        (&mut file).take(WINDOW as u64).read_to_end(&mut window).ok()?;
+        if let Some(at) = entity_line(&window) {
             cuts.push(from + at as u64);
         }
     }
     cuts.push(len);
     Some(cuts)
-}
-
-/// Reads until `buf` is full or the input ends; the bytes read.
-fn read_up_to(input: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
-    let mut n = 0;
-    while n < buf.len() {
-        match input.read(&mut buf[n..])? {
-            0 => break,
-            k => n += k,
-        }
-    }
-    Ok(n)
 }
 
 /// The start of the first whole line of `bytes` (after a line break in it) whose first
