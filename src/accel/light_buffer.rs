@@ -1,6 +1,7 @@
 //! Light buffers (Haines and Greenberg, 1986): for a light with a position, a cube of
 //! direction cells around it, each listing the leaf entries of the tree that may lie in
-//! its directions, nearest the light first. A shadow ray from a point towards the light
+//! its directions, nearest the light first (an opaque mesh not whole but by the leaves
+//! of its own tree, [`super::LeafItem::Piece`]). A shadow ray from a point towards the light
 //! can meet only what lies in the directions of that point as seen from the light, and
 //! nearer the light than the point: it tests that cell's short list, stopping at the
 //! first entry farther than the point, in place of a walk from the root of the tree.
@@ -64,13 +65,18 @@ const SLACK: f32 = 1e-4;
 const EDGE: f32 = 1e-4;
 
 impl LightBuffer {
-    /// Per light of `lights`, its buffer over leaf entries with boxes `boxes`, where it
-    /// has one: the first [`MAX_LIGHTS`] with a position may, built in parallel.
-    /// `WHITTED_LIGHT_BUFFERS=0` in the environment goes without, to compare.
-    pub(super) fn for_lights(lights: &[Light], boxes: &[Aabb]) -> Vec<Option<LightBuffer>> {
+    /// Whether lights get buffers over a tree of `entries` leaf entries: not where there
+    /// are so few that a walk is short. `WHITTED_LIGHT_BUFFERS=0` in the environment
+    /// goes without, to compare.
+    pub(super) fn wanted(entries: usize) -> bool {
+        LightBuffer::side(entries) > 0 && std::env::var_os("WHITTED_LIGHT_BUFFERS").is_none_or(|v| v != "0")
+    }
+
+    /// Per light of `lights`, its buffer over entries with boxes `boxes` (empty boxes
+    /// listed nowhere), `n` cells a side ([`LightBuffer::side`]), where it has one: the
+    /// first [`MAX_LIGHTS`] with a position may, built in parallel.
+    pub(super) fn for_lights(lights: &[Light], boxes: &[Aabb], n: usize) -> Vec<Option<LightBuffer>> {
         use rayon::prelude::*;
-        let off = std::env::var_os("WHITTED_LIGHT_BUFFERS").is_some_and(|v| v == "0");
-        let n = if off { 0 } else { LightBuffer::side(boxes.len()) };
         let placed: Vec<usize> =
             (0..lights.len()).filter(|&k| lights[k].position().is_some()).take(MAX_LIGHTS).collect();
         let built: Vec<_> = match n {
@@ -86,7 +92,7 @@ impl LightBuffer {
 
     /// Cells along a face's side for a tree of `entries` leaf entries: none for so
     /// few that a walk is short.
-    fn side(entries: usize) -> usize {
+    pub(super) fn side(entries: usize) -> usize {
         if entries < 64 {
             return 0;
         }
@@ -103,8 +109,13 @@ impl LightBuffer {
             return None;
         }
         // Entries nearest the light first, so each cell's list comes out in that order.
-        let mut order: Vec<(f32, u32)> =
-            boxes.iter().enumerate().map(|(i, b)| (near_distance(at, b), i as u32)).collect();
+        // Empty boxes (meshes listed by their pieces) are in no cell.
+        let mut order: Vec<(f32, u32)> = boxes
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| !(b.min.x > b.max.x))
+            .map(|(i, b)| (near_distance(at, b), i as u32))
+            .collect();
         order.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
         // Coarser where finer cells would list too much (objects round the light, in many
         // of its directions); crowded cells only get more so.

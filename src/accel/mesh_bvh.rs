@@ -47,6 +47,19 @@ impl MeshBvh {
         MeshBvh { tree, packs, leaf_size }
     }
 
+    /// The mesh in pieces for a light buffer to list: each leaf's packs and the box of
+    /// their triangles as the packs hold them. A shadow ray blocked by the mesh is
+    /// blocked by a triangle in one of them, which lies along the ray's segment, so in
+    /// its cell and nearer the light than its origin.
+    pub(super) fn pieces(&self, mut f: impl FnMut(std::ops::Range<u32>, crate::math::Aabb)) {
+        self.tree.each_leaf(|first, count| {
+            let b = self.packs[first as usize..(first + count) as usize]
+                .iter()
+                .fold(crate::math::Aabb::EMPTY, |b, pack| b.union(pack.bounds()));
+            f(first..first + count, b);
+        });
+    }
+
     /// Whether the mesh is small enough (a polygon, a quad of an NFF scene) for its
     /// triangles to be tested without walking its tree: the object's box in the top
     /// tree has been entered already, and the walk's own node visit cost more than the

@@ -140,6 +140,9 @@ enum LeafItem {
     Spheres8(Sphere8),
     Inline(Inline, u32),
     Other(u32),
+    /// Only past the tree's leaves, for the light buffers: the packs `start..end` of
+    /// mesh object `i`, a leaf of its tree.
+    Piece(u32, u32, u32),
 }
 
 // An entry is as big as a pack of eight spheres: the copied shapes take no more room.
@@ -219,12 +222,12 @@ impl<'s> World<'s> {
     /// AVX2), rather than the best this processor walks: lets tests cover both.
     pub fn with_width(scene: &'s Scene, kind: AccelKind, width: Option<usize>) -> Self {
         let start = Instant::now();
-        let transmission = scene.objects.iter().map(|o| scene.material(o.material).transparency).collect();
+        let transmission: Vec<f32> = scene.objects.iter().map(|o| scene.material(o.material).transparency).collect();
         let materials = scene.objects.iter().map(|o| scene.material(o.material)).collect();
         let absorbing = (0..scene.objects.len() as u32)
             .filter(|&i| scene.material(scene.objects[i as usize].material).absorbs())
             .collect();
-        let (top, meshes) = match kind {
+        let (top, meshes): (Bvh, Vec<Option<Arc<MeshBvh>>>) = match kind {
             AccelKind::None => (Bvh { nodes: vec![], indices: vec![] }, scene.objects.iter().map(|_| None).collect()),
             AccelKind::Bvh => {
                 use rayon::prelude::*;
@@ -306,11 +309,36 @@ impl<'s> World<'s> {
         });
         debug_assert_eq!(leaves.len(), entries, "every leaf's entries counted");
         let flat = kind == AccelKind::None || scene.objects.len() == 1;
+        let buffered = !flat
+            && scene.lights.iter().any(|l| l.position().is_some())
+            && light_buffer::LightBuffer::wanted(leaves.len());
+        // Cells a side as the tree's entries ask, before the pieces below join them.
+        let side = light_buffer::LightBuffer::side(leaves.len());
+        if buffered {
+            // The light buffers list an opaque mesh leaf by leaf of its tree, as entries
+            // past the tree's own ([`LeafItem::Piece`]), not the whole mesh: a shadow ray
+            // tests the few leaves along it rather than walking the mesh from its root
+            // (the torus of bench/mixed_nff.py: docs/performance.md, stop 53).
+            let mesh_of = |item: &LeafItem| match *item {
+                LeafItem::Other(i) => {
+                    opaque_plain_mesh(scene, &meshes, &transmission, i as usize).filter(|m| !m.direct()).map(|m| (i, m))
+                }
+                _ => None,
+            };
+            for at in 0..leaves.len() {
+                let Some((i, mesh)) = mesh_of(&leaves[at]) else { continue };
+                boxes[at] = crate::math::Aabb::EMPTY;
+                mesh.pieces(|packs, b| {
+                    leaves.push(LeafItem::Piece(i, packs.start, packs.end));
+                    boxes.push(b);
+                });
+            }
+        }
         let leaves = crate::pages::on_huge_pages(leaves);
         let avx2 = lanes::avx2();
-        let light_buffers = match flat {
-            true => scene.lights.iter().map(|_| None).collect(),
-            false => light_buffer::LightBuffer::for_lights(&scene.lights, &boxes),
+        let light_buffers = match buffered {
+            false => scene.lights.iter().map(|_| None).collect(),
+            true => light_buffer::LightBuffer::for_lights(&scene.lights, &boxes, side),
         };
         World {
             scene,
@@ -364,6 +392,12 @@ impl<'s> World<'s> {
     fn unique_meshes(&self) -> impl Iterator<Item = &MeshBvh> {
         let mut seen = std::collections::HashSet::new();
         self.meshes.iter().flatten().filter(move |m| seen.insert(Arc::as_ptr(m))).map(|m| &**m)
+    }
+
+    /// The tree of object `i` if it is an opaque mesh in place ([`World::opaque_mesh`]).
+    #[inline(always)]
+    fn opaque_object_mesh(&self, i: usize) -> Option<&MeshBvh> {
+        opaque_plain_mesh(self.scene, &self.meshes, &self.transmission, i)
     }
 
     /// The tree of object `i` if it is a mesh in place (not an instance, whose rays need
@@ -511,8 +545,24 @@ impl<'s> World<'s> {
                     offer(h, i);
                 }
             }
+            // Not in the tree.
+            LeafItem::Piece(..) => {}
         }
         t_cur
+    }
+}
+
+/// The tree of object `i` where it is a mesh in place (not an instance) and opaque.
+#[inline(always)]
+fn opaque_plain_mesh<'a>(
+    scene: &Scene,
+    meshes: &'a [Option<Arc<MeshBvh>>],
+    transmission: &[f32],
+    i: usize,
+) -> Option<&'a MeshBvh> {
+    match (&meshes[i], &scene.objects[i].shape) {
+        (Some(m), Shape::Mesh(_)) if transmission[i] == 0.0 => Some(m),
+        _ => None,
     }
 }
 

@@ -203,10 +203,7 @@ impl World<'_> {
     #[inline(always)]
     pub(super) fn opaque_mesh(&self, at: usize) -> Option<&super::mesh_bvh::MeshBvh> {
         match self.leaves[at] {
-            LeafItem::Other(i) if self.transmission[i as usize] == 0.0 => match &self.meshes[i as usize] {
-                Some(m) if matches!(self.scene.objects[i as usize].shape, crate::geometry::Shape::Mesh(_)) => Some(m),
-                _ => None,
-            },
+            LeafItem::Other(i) => self.opaque_object_mesh(i as usize),
             _ => None,
         }
     }
@@ -224,6 +221,15 @@ impl World<'_> {
                 self.pass_through(shape.intersect(ray, 0.0, t_max).is_some() as u32, &[i], light)
             }
             LeafItem::Other(i) => self.pass_through(self.blocks(i as usize, ray, t_max) as u32, &[i], light),
+            LeafItem::Piece(i, start, end) => {
+                // Of an opaque mesh.
+                let mesh = self.meshes[i as usize].as_deref().expect("a piece's mesh has a tree");
+                let stops = mesh.packs_block(start as usize..end as usize, ray, t_max);
+                if stops {
+                    *light = 0.0;
+                }
+                stops
+            }
         }
     }
 

@@ -703,3 +703,88 @@ fn light_buffers_are_bounded_in_number() {
     scene.add_light(crate::light::DirectionalLight::new(Vec3::NEG_Y, Color::ONE));
     assert!(World::new(&scene, AccelKind::Bvh).light_buffers.iter().all(Option::is_none));
 }
+
+/// Light buffers list an opaque mesh by the leaves of its tree ([`LeafItem::Piece`]), a
+/// glass mesh whole: shadow rays through them, one or eight at a time, from anywhere
+/// and from just above the wavy opaque sheet (which shadows itself), with the last
+/// blocker carried or picked at random among all entries, pieces too, get the answers
+/// of testing every object.
+#[test]
+fn light_buffers_listing_a_meshs_leaves_get_the_answers_of_testing_everything() {
+    for width in [4, 8] {
+        let mut scene = random_scene(31, 120);
+        let mut r = Rng::new(3100);
+        add_spheres(&mut scene, &mut r, 300, (0.05, 0.5));
+        let n = 40u32;
+        let height = |x: f32, z: f32| (x * 0.7).sin() + (z * 0.5).cos();
+        for (k, material) in [(0, crate::scene::MaterialId(0)), (1, crate::scene::MaterialId(1))] {
+            let pos = (0..=n)
+                .flat_map(|i| (0..=n).map(move |j| (i as f32 - 20.0, j as f32 - 20.0)))
+                .map(|(x, z)| Vec3::new(x, height(x, z) + k as f32 * 6.0 - 3.0, z))
+                .collect();
+            let quads = (0..n).flat_map(|i| (0..n).map(move |j| i * (n + 1) + j));
+            let tris = quads.flat_map(|a| [[a, a + 1, a + n + 1], [a + 1, a + n + 2, a + n + 1]]).collect();
+            scene.add(Mesh::new(pos, vec![], vec![], tris, false).expect("a mesh"), material);
+        }
+        let lights = [Vec3::new(3.0, 30.0, -2.0), Vec3::new(-25.0, 8.0, 4.0), Vec3::new(0.5, -20.0, 1.0)];
+        for &at in &lights {
+            scene.add_light(crate::light::PointLight::new(at, Color::ONE));
+        }
+        let (bvh, brute) =
+            (World::with_width(&scene, AccelKind::Bvh, Some(width)), World::new(&scene, AccelKind::None));
+        let (opaque, glass) = (scene.objects.len() as u32 - 2, scene.objects.len() as u32 - 1);
+        let pieces_of =
+            |object| bvh.leaves.iter().filter(|l| matches!(l, LeafItem::Piece(i, ..) if *i == object)).count();
+        let sheet = bvh.opaque_object_mesh(opaque as usize).expect("the opaque sheet");
+        let mut leaves = 0;
+        sheet.pieces(|_, _| leaves += 1);
+        assert!(leaves > 100, "width {width}: {leaves} leaves");
+        assert_eq!(pieces_of(opaque), leaves, "width {width}: the opaque sheet in its leaves");
+        assert_eq!(pieces_of(glass), 0, "width {width}: the glass sheet whole");
+        let entries = bvh.leaves.len() as u32;
+        let (mut blocked, mut through, mut piece_blocked) = (0, 0, 0);
+        let mut last = LastBlocker::default();
+        for group in 0..5000u32 {
+            let k = group as usize % lights.len();
+            let at = lights[k];
+            let (mut from, mut dirs, mut t_max) = ([[0f32; 8]; 3], [[0f32; 8]; 3], [0f32; 8]);
+            for lane in 0..8 {
+                let p = match r.below(3) {
+                    0 => v(&mut r, 22.0),
+                    // Just above or below the opaque sheet.
+                    _ => {
+                        let (x, z) = (r.next_f32() * 40.0 - 20.0, r.next_f32() * 40.0 - 20.0);
+                        let side = if r.below(2) == 0 { 0.05 } else { -0.05 };
+                        Vec3::new(x, height(x, z) - 3.0 + side, z)
+                    }
+                };
+                let l = at - p;
+                for axis in 0..3 {
+                    (from[axis][lane], dirs[axis][lane]) = (p[axis], (l / l.length())[axis]);
+                }
+                t_max[lane] = l.length();
+            }
+            let live = r.below(256);
+            let rays = ShadowLanes { from: &from, dirs: &dirs, t_max, live, leaving: [NONE; 8] };
+            let mut eight_last = last;
+            let eight = bvh.transmittance_towards_lanes(k, &rays, &mut eight_last);
+            for lane in 0..8 {
+                let origin = Vec3::new(from[0][lane], from[1][lane], from[2][lane]);
+                let ray = Ray { origin, dir: Vec3::new(dirs[0][lane], dirs[1][lane], dirs[2][lane]) };
+                let want = brute.transmittance(&ray, t_max[lane]);
+                assert_eq!(bvh.transmittance_towards(k, &ray, t_max[lane], &mut last), want, "group {group}");
+                if live >> lane & 1 != 0 {
+                    assert_eq!(eight[lane], want, "width {width}, group {group}, lane {lane}");
+                }
+                blocked += (want == 0.0) as u32;
+                through += (want > 0.0 && want < 1.0) as u32;
+                piece_blocked += (want == 0.0 && matches!(bvh.leaves[last.0 as usize], LeafItem::Piece(..))) as u32;
+            }
+            if group % 5 == 0 {
+                last = LastBlocker::at(r.below(entries));
+            }
+        }
+        assert!(blocked > 8000 && through > 2000, "width {width}: {blocked} blocked, {through} through glass");
+        assert!(piece_blocked > 3000, "width {width}: {piece_blocked} blocked by a piece");
+    }
+}

@@ -35,6 +35,18 @@ impl Ray4 {
 
 impl Tri4 {
     /// Packs up to four triangles given as (v0, e1, e2, id).
+    /// The box of the pack's triangles (its unused lanes, all zeros, left out), from the
+    /// corners as the test sees them: `v0`, `v0 + e1`, `v0 + e2`.
+    pub fn bounds(&self) -> crate::math::Aabb {
+        let mut b = crate::math::Aabb::EMPTY;
+        for lane in (0..4).filter(|&lane| self.ids[lane] != u32::MAX) {
+            let at = |rows: &[Vec4; 3]| Vec3::new(rows[0][lane], rows[1][lane], rows[2][lane]);
+            let v0 = at(&self.v0);
+            b = b.grow(v0).grow(v0 + at(&self.e1)).grow(v0 + at(&self.e2));
+        }
+        b
+    }
+
     pub fn pack(tris: &[(Vec3, Vec3, Vec3, u32)]) -> Tri4 {
         debug_assert!(tris.len() <= 4);
         let mut t = Tri4 { v0: [Vec4::ZERO; 3], e1: [Vec4::ZERO; 3], e2: [Vec4::ZERO; 3], ids: [u32::MAX; 4] };

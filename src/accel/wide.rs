@@ -48,6 +48,11 @@ impl Bvh4 {
         map_leaves(&mut self.nodes, f);
     }
 
+    /// Calls `f` with each leaf's first primitive and count.
+    pub fn each_leaf(&self, f: impl FnMut(u32, u32)) {
+        each_leaf(&self.nodes, f);
+    }
+
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node4>()
     }
@@ -202,6 +207,7 @@ pub(super) trait WideNode: Sized {
     /// Sets slot `lane` to binary node `b`'s box and a packed child reference.
     fn set_lane(&mut self, lane: usize, b: &Node, child: u32, count: u32);
     fn packed_mut(&mut self) -> &mut [u32];
+    fn packed(&self) -> &[u32];
 }
 
 /// The wide nodes of a binary tree, root first.
@@ -253,6 +259,18 @@ pub(super) fn map_leaves<N: WideNode>(nodes: &mut [N], mut f: impl FnMut(u32, u3
             if count > 0 {
                 let (child, count) = f(child, count);
                 *packed = pack(child, count);
+            }
+        }
+    }
+}
+
+/// Calls `f` with each leaf's first primitive and count, node by node.
+pub(super) fn each_leaf<N: WideNode>(nodes: &[N], mut f: impl FnMut(u32, u32)) {
+    for n in nodes {
+        for &packed in n.packed() {
+            let (first, count) = unpack(packed);
+            if count > 0 {
+                f(first, count);
             }
         }
     }
@@ -352,6 +370,10 @@ impl WideNode for Node4 {
 
     fn packed_mut(&mut self) -> &mut [u32] {
         &mut self.packed
+    }
+
+    fn packed(&self) -> &[u32] {
+        &self.packed
     }
 }
 

@@ -42,6 +42,11 @@ impl Bvh8 {
         map_leaves(&mut self.nodes, f);
     }
 
+    /// Calls `f` with each leaf's first primitive and count.
+    pub fn each_leaf(&self, f: impl FnMut(u32, u32)) {
+        super::wide::each_leaf(&self.nodes, f);
+    }
+
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<Node8>()
     }
@@ -440,6 +445,10 @@ impl WideNode for Node8 {
 
     fn packed_mut(&mut self) -> &mut [u32] {
         &mut self.packed
+    }
+
+    fn packed(&self) -> &[u32] {
+        &self.packed
     }
 }
 

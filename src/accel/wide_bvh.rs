@@ -76,6 +76,16 @@ impl WideBvh {
         }
     }
 
+    /// Calls `f` with each leaf's first item and count (after [`WideBvh::map_leaves`],
+    /// what it gave).
+    pub fn each_leaf(&self, f: impl FnMut(u32, u32)) {
+        match self {
+            WideBvh::Four(t) => t.each_leaf(f),
+            #[cfg(target_arch = "x86_64")]
+            WideBvh::Eight(t) => t.each_leaf(f),
+        }
+    }
+
     pub fn memory_bytes(&self) -> usize {
         match self {
             WideBvh::Four(t) => t.memory_bytes(),
