@@ -553,6 +553,12 @@ impl World<'_> {
                 return 0.0;
             }
         }
+        // The light got through: the next ray, likely from nearby, will too more often
+        // than the old blocker stops it (sphereflake: of 518 k hints tried, 197 k
+        // settled a ray; tried only after a blocked ray, 281 k and 183 k).
+        if light == 1.0 {
+            *blocker = LastBlocker::default();
+        }
         light as f32
     }
 
