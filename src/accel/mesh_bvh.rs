@@ -60,6 +60,13 @@ impl MeshBvh {
         });
     }
 
+    /// How many [`MeshBvh::pieces`] there are.
+    pub(super) fn leaf_count(&self) -> usize {
+        let mut n = 0;
+        self.tree.each_leaf(|_, _| n += 1);
+        n
+    }
+
     /// Whether the mesh is small enough (a polygon, a quad of an NFF scene) for its
     /// triangles to be tested without walking its tree: the object's box in the top
     /// tree has been entered already, and the walk's own node visit cost more than the

@@ -325,8 +325,18 @@ impl<'s> World<'s> {
                 }
                 _ => None,
             };
+            // At most three times as many pieces as the tree has entries: each costs the
+            // build its placing in every light's cells, and a mesh much finer than the rest
+            // of the scene gains less from them than that (`bench/mixed_nff.py --mesh 256`,
+            // a torus of 131 k triangles: build 28 to 39 ms, render no faster).
+            let mut budget = 3 * leaves.len();
             for at in 0..leaves.len() {
                 let Some((i, mesh)) = mesh_of(&leaves[at]) else { continue };
+                let count = mesh.leaf_count();
+                if count > budget {
+                    continue;
+                }
+                budget -= count;
                 boxes[at] = crate::math::Aabb::EMPTY;
                 mesh.pieces(|packs, b| {
                     leaves.push(LeafItem::Piece(i, packs.start, packs.end));

@@ -788,3 +788,29 @@ fn light_buffers_listing_a_meshs_leaves_get_the_answers_of_testing_everything() 
         assert!(piece_blocked > 3000, "width {width}: {piece_blocked} blocked by a piece");
     }
 }
+
+/// A light buffer takes at most three pieces per entry of the tree: a mesh much finer
+/// than the rest of the scene is listed whole, a coarser one by its leaves.
+#[test]
+fn a_mesh_much_finer_than_the_rest_is_listed_whole() {
+    for (n, pieces) in [(120u32, false), (20, true)] {
+        let mut scene = random_scene(41, 200);
+        let pos = (0..=n)
+            .flat_map(|i| {
+                (0..=n)
+                    .map(move |j| Vec3::new(i as f32 * 40.0 / n as f32 - 20.0, 0.0, j as f32 * 40.0 / n as f32 - 20.0))
+            })
+            .collect();
+        let quads = (0..n).flat_map(|i| (0..n).map(move |j| i * (n + 1) + j));
+        let tris = quads.flat_map(|a| [[a, a + 1, a + n + 1], [a + 1, a + n + 2, a + n + 1]]).collect();
+        scene.add(Mesh::new(pos, vec![], vec![], tris, false).expect("a mesh"), crate::scene::MaterialId(0));
+        scene.add_light(crate::light::PointLight::new(Vec3::new(1.0, 30.0, 2.0), Color::ONE));
+        let world = World::new(&scene, AccelKind::Bvh);
+        assert!(world.light_buffers[0].is_some(), "{n}: a buffer");
+        let sheet = scene.objects.len() as u32 - 1;
+        let of_sheet = world.leaves.iter().filter(|l| matches!(l, LeafItem::Piece(i, ..) if *i == sheet)).count();
+        let all = world.leaves.iter().filter(|l| matches!(l, LeafItem::Piece(..))).count();
+        assert_eq!(of_sheet > 0, pieces, "{n}: {of_sheet} pieces of the sheet");
+        assert!(all <= 3 * (world.leaves.len() - all), "{all} pieces for {} entries", world.leaves.len() - all);
+    }
+}
