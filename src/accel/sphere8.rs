@@ -79,10 +79,11 @@ impl Sphere8 {
     #[target_feature(enable = "avx2")]
     #[inline]
     fn intersect_avx2(&self, ray: &Ray, t_min: f32, t_max: f32) -> (u32, F8) {
-        let row = |r: &F8| Avx8::load(r);
+        // The rows loaded one by one, not through a closure and `array::map`, which the
+        // compiler may leave as calls where this is inlined into a bigger loop.
         let (o, d) = (lanes::splat3::<Avx8>(ray.origin), lanes::splat3::<Avx8>(ray.dir));
-        let (hit, t) =
-            hits(o, d, self.center.each_ref().map(row), row(&self.radius), Avx8::splat(t_min), Avx8::splat(t_max));
+        let center = [Avx8::load(&self.center[0]), Avx8::load(&self.center[1]), Avx8::load(&self.center[2])];
+        let (hit, t) = hits(o, d, center, Avx8::load(&self.radius), Avx8::splat(t_min), Avx8::splat(t_max));
         (Avx8::bits(hit), t.store())
     }
 
