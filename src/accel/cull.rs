@@ -224,26 +224,13 @@ impl World<'_> {
     /// [`World::closest_among`] `ids` for each ray of `found`, its answer written beside
     /// it: with AVX2, eight rays at a time, object by object (the same answers).
     pub fn closest_among_each(&self, ids: &[u32], found: &mut [(Ray, Option<(Hit, u32)>)]) {
-        self.closest_among_each_or(ids, found, |_, _, _| false);
-    }
-
-    /// [`World::closest_among_each`], where each block of eight rays found with AVX2 is
-    /// first offered, with its hits in lanes, to `take(first, rays, hits)` (`first`: the
-    /// block's first index in `found`). A block `take` keeps is left without hits in
-    /// `found` (as it came): the caller shades it from the lanes.
-    pub fn closest_among_each_or(
-        &self,
-        ids: &[u32],
-        found: &mut [(Ray, Option<(Hit, u32)>)],
-        mut take: impl FnMut(usize, &[(Ray, Option<(Hit, u32)>)], &Best8) -> bool,
-    ) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
-            for (block, rays) in found.chunks_mut(8).enumerate() {
+            for rays in found.chunks_mut(8) {
                 // SAFETY: `avx2` is set only where the processor has AVX2.
                 #[allow(unsafe_code)]
                 unsafe {
-                    self.closest_among_8(ids, rays, |rays, best| take(8 * block, rays, best))
+                    self.closest_among_8(ids, rays)
                 };
             }
             return;
@@ -343,12 +330,7 @@ impl World<'_> {
     /// [`World::closest_of`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn closest_among_8(
-        &self,
-        ids: &[u32],
-        rays: &mut [(Ray, Option<(Hit, u32)>)],
-        take: impl FnOnce(&[(Ray, Option<(Hit, u32)>)], &Best8) -> bool,
-    ) {
+    fn closest_among_8(&self, ids: &[u32], rays: &mut [(Ray, Option<(Hit, u32)>)]) {
         let live = (1u32 << rays.len()) - 1;
         let wide = packet8::Rays8::new(rays);
         let mut best = Best8::new();
@@ -367,9 +349,6 @@ impl World<'_> {
                     }
                 }
             }
-        }
-        if take(rays, &best) {
-            return; // their hits stay `None`, as `found` came
         }
         for (lane, (_, hit)) in rays.iter_mut().enumerate() {
             *hit = (best.index[lane] != NONE).then(|| best.get(lane));

@@ -34,7 +34,7 @@ pub struct Best8 {
     pub(super) part: [u8; 8],
     pub(super) prim: [u32; 8],
     pub index: [u32; 8],
-    /// The object that took lanes last, and the lanes that hold it: [`Best8::one_object`]
+    /// The object that took lanes last, and the lanes that hold it: [`Best8::taken_by`]
     /// without reading `index` back whole, just after it was written lane by lane.
     pub(super) owner: u32,
     pub(super) owned: u32,
@@ -66,11 +66,6 @@ impl Best8 {
         // this one hold other objects.
         self.owned = if index == self.owner { self.owned | 1 << lane } else { 1 << lane };
         self.owner = index;
-    }
-
-    /// The object all eight lanes hit, if one is.
-    pub fn one_object(&self) -> Option<u32> {
-        (self.owned == 0xff).then_some(self.owner)
     }
 
     /// The lanes that hold object `index`, if it was the last one to take any.
