@@ -2,6 +2,7 @@
 //! level's shadow rays to one light tested against only the few objects they may meet,
 //! eight rays at a time, instead of walking the tree.
 
+#[cfg(target_arch = "x86_64")]
 use super::lanes::Best8;
 #[cfg(target_arch = "x86_64")]
 use super::packet8;
