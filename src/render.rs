@@ -6,7 +6,7 @@ use crate::accel::{AccelKind, World};
 use crate::camera::{Camera, CameraError, CameraRig};
 use crate::film::Image;
 use crate::integrator::{Integrator, RayStats, WAVE_RAYS, Wave};
-use crate::math::{Color, Ray, Vec2};
+use crate::math::{Color, Ray, Vec2, Vec3};
 use crate::sampler::{Rng, pixel_samples};
 use crate::scene::Scene;
 use rayon::prelude::*;
@@ -341,7 +341,7 @@ impl<'s> Renderer<'s> {
         let queue = TileQueue::new(total, workers);
         // A tile writes its pixels into its band of up to TILE rows, locked only for the
         // copy; a worker keeps its buffers for all the tiles it takes.
-        let mut bands: Vec<Mutex<&mut [Color]>> = Vec::new();
+        let mut bands: Vec<Mutex<&mut [Vec3]>> = Vec::new();
         let mut rest = image.pixels_mut();
         for ty in ty0..ry1.div_ceil(TILE) {
             let rows = ((ty + 1) * TILE).min(ry1) - (ty * TILE).max(ry0);
@@ -366,8 +366,10 @@ impl<'s> Renderer<'s> {
                     for y in band_y..y1.min(ry1) {
                         let from = (y - y0) as usize * (x1 - x0) as usize + (cx0 - x0) as usize;
                         let at = (y - band_y) as usize * width + (cx0 - rx0) as usize;
-                        rows[at..at + (cx1 - cx0) as usize]
-                            .copy_from_slice(&tile.pixels[from..from + (cx1 - cx0) as usize]);
+                        let n = (cx1 - cx0) as usize;
+                        for (to, c) in rows[at..at + n].iter_mut().zip(&tile.pixels[from..from + n]) {
+                            *to = (*c).into();
+                        }
                     }
                     drop(rows);
                     progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
@@ -467,7 +469,8 @@ impl<'s> Renderer<'s> {
         let (w, h) = (x1 - x0, y1 - y0);
         let total = h as usize + 1;
         let done = std::sync::atomic::AtomicUsize::new(0);
-        let rows: Vec<(Vec<Color>, RayStats)> = (y0..=y1)
+        // Three floats a corner (not the four of a `Color`): the grid is image-sized.
+        let rows: Vec<(Vec<Vec3>, RayStats)> = (y0..=y1)
             .into_par_iter()
             .map_init(
                 || (Wave::default(), Vec::new(), Vec::new()),
@@ -481,7 +484,7 @@ impl<'s> Renderer<'s> {
                         rays.clear();
                         rays.extend(xs.iter().map(|&x| rig.ray(x as f32, y as f32)));
                         wave.trace(integrator, rays, None, colors, &mut stats);
-                        row.extend_from_slice(colors);
+                        row.extend(colors.iter().map(|&c| Vec3::from(c)));
                     }
                     progress(done.fetch_add(1, Ordering::Relaxed) + 1, total);
                     Some((row, stats))
@@ -497,7 +500,7 @@ impl<'s> Renderer<'s> {
             let (top, bottom) = (&rows[y].0, &rows[y + 1].0);
             for x in 0..w as usize {
                 let c = (top[x] + top[x + 1] + bottom[x] + bottom[x + 1]) * 0.25;
-                image.set(x as u32, y as u32, c);
+                image.set(x as u32, y as u32, c.into());
             }
         }
         Some(RenderOutput { image, stats, elapsed: start.elapsed(), build_time: Duration::ZERO, spp: 4, corners: true })

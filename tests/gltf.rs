@@ -294,10 +294,10 @@ fn a_node_tree_places_its_meshes_by_the_product_of_transforms() {
         let (u, v) = ((x / (2.0 * half) + 1.0) * 32.0, (1.0 - (y - 0.5) / half) * 16.0);
         img.pixel(u as u32, v as u32)
     };
-    assert_eq!(px(-2.0, 1.0), Vec3::new(1.0, 0.0, 0.0));
-    assert_eq!(px(2.5, -0.5), Vec3::new(0.0, 1.0, 0.0));
-    assert_eq!(px(0.0, 0.5), Vec3::ZERO, "nothing between them");
-    assert_eq!(px(2.5, 0.5), Vec3::ZERO, "the green card is below y = 0");
+    assert_eq!(px(-2.0, 1.0), Color::new(1.0, 0.0, 0.0));
+    assert_eq!(px(2.5, -0.5), Color::new(0.0, 1.0, 0.0));
+    assert_eq!(px(0.0, 0.5), Color::ZERO, "nothing between them");
+    assert_eq!(px(2.5, 0.5), Color::ZERO, "the green card is below y = 0");
 }
 
 #[test]
@@ -352,13 +352,13 @@ fn camera_lights_and_materials_map_and_the_rest_is_warned_about_once() {
     assert_eq!(s.lights.len(), 5);
     assert_eq!(
         (s.lights[0].position(), s.lights[0].color()),
-        (Some(Vec3::new(0.0, 10.0, 0.0)), Vec3::new(1.0, 0.5, 0.25))
+        (Some(Vec3::new(0.0, 10.0, 0.0)), Color::new(1.0, 0.5, 0.25))
     );
-    assert_eq!((s.lights[1].position(), s.lights[1].color()), (Some(Vec3::new(0.0, 0.0, 10.0)), Vec3::splat(0.5)));
+    assert_eq!((s.lights[1].position(), s.lights[1].color()), (Some(Vec3::new(0.0, 0.0, 10.0)), Color::splat(0.5)));
     match s.lights[2] {
         Light::Spot(spot) => {
             assert_eq!((spot.position, spot.direction), (Vec3::ZERO, Vec3::NEG_Z));
-            assert!((spot.inner_angle, spot.outer_angle) == (0.0, 45.0) && spot.color == Vec3::splat(0.01), "{spot:?}");
+            assert!((spot.inner_angle, spot.outer_angle) == (0.0, 45.0) && spot.color == Color::splat(0.01), "{spot:?}");
         }
         ref other => panic!("{other:?}"),
     }

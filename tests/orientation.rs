@@ -24,7 +24,7 @@ const CELLS: [[f32; 3]; 8] = [
 ];
 
 fn cell(col: usize, row: usize) -> Color {
-    Vec3::from_array(CELLS[row * 4 + col])
+    Color::from_array(CELLS[row * 4 + col])
 }
 
 /// Whether texel `(x, y)` of the test image is part of the "F" (top-left cell only).

@@ -41,6 +41,11 @@ fn v3((x, y, z): V3) -> Vec3 {
     Vec3::new(x, y, z)
 }
 
+/// A colour from Python's three numbers.
+fn c3(v: V3) -> Color {
+    v3(v).into()
+}
+
 fn t3(v: Vec3) -> V3 {
     (v.x, v.y, v.z)
 }
@@ -142,7 +147,7 @@ impl CoreScene {
     /// (background, max_depth, samples, ambient)
     fn settings(&self) -> (V3, u32, u32, f32) {
         let s = self.scene.settings;
-        (t3(s.background), s.max_depth, s.samples, s.ambient)
+        (t3(s.background.into()), s.max_depth, s.samples, s.ambient)
     }
 
     /// How the scene file says 8-bit output encodes colour (`[settings] color`; glTF
@@ -174,7 +179,7 @@ impl CoreScene {
     ) -> PyResult<CoreScene> {
         let mut scene = self.scene.clone();
         if let Some(b) = background {
-            scene.settings.background = v3(b);
+            scene.settings.background = c3(b);
         }
         if let Some(a) = ambient {
             scene.settings.ambient = a;
@@ -332,16 +337,16 @@ fn light(l: &Bound<'_, PyTuple>) -> PyResult<Light> {
     Ok(match kind.as_str() {
         "point" => {
             let (position, color, intensity, att): (V3, V3, f32, V3) = l.get_slice(1, 5).extract()?;
-            PointLight::new(v3(position), v3(color) * intensity).with_attenuation(attenuation(att)).into()
+            PointLight::new(v3(position), c3(color) * intensity).with_attenuation(attenuation(att)).into()
         }
         "directional" => {
             let (direction, color, intensity): (V3, V3, f32) = l.get_slice(1, 4).extract()?;
-            DirectionalLight::new(v3(direction), v3(color) * intensity).into()
+            DirectionalLight::new(v3(direction), c3(color) * intensity).into()
         }
         "spot" => {
             let (position, direction, inner, outer, color, intensity, att): (V3, V3, f32, f32, V3, f32, V3) =
                 l.get_slice(1, 8).extract()?;
-            SpotLight::new(v3(position), v3(direction), inner, outer, v3(color) * intensity)
+            SpotLight::new(v3(position), v3(direction), inner, outer, c3(color) * intensity)
                 .with_attenuation(attenuation(att))
                 .into()
         }
@@ -357,17 +362,17 @@ fn material(m: &Bound<'_, PyTuple>) -> PyResult<Material> {
     let args: MaterialArgs<'_> = m.extract()?;
     let (color, diffuse, specular, shininess, reflectivity, transparency, ior, texture, fresnel, absorption) = args;
     let texture = match texture {
-        None => Texture::Solid(v3(color)),
+        None => Texture::Solid(c3(color)),
         Some(t) => {
             let kind: String = t.get_item(0)?.extract()?;
             match kind.as_str() {
                 "checker" => {
                     let (size, offset, a, b): (f32, V3, V3, V3) = t.get_slice(1, 5).extract()?;
-                    Texture::Checker { size, offset: v3(offset), colors: [v3(a), v3(b)] }
+                    Texture::Checker { size, offset: v3(offset), colors: [c3(a), c3(b)] }
                 }
                 "stripes" => {
                     let (axis, width, a, b): (V3, f32, V3, V3) = t.get_slice(1, 5).extract()?;
-                    Texture::Stripes { axis: v3(axis).normalize_or(Vec3::Y), width, colors: [v3(a), v3(b)] }
+                    Texture::Stripes { axis: v3(axis).normalize_or(Vec3::Y), width, colors: [c3(a), c3(b)] }
                 }
                 other => return Err(PyValueError::new_err(format!("unknown texture kind {other:?}"))),
             }
@@ -382,7 +387,7 @@ fn material(m: &Bound<'_, PyTuple>) -> PyResult<Material> {
         transparency,
         ior,
         fresnel,
-        absorption: v3(absorption),
+        absorption: c3(absorption),
     })
 }
 
@@ -430,7 +435,7 @@ fn from_numpy(array: &PyReadonlyArray3<'_, f32>) -> PyResult<Image> {
     let (w, h, data) = image_floats(array)?;
     let mut image = Image::new(w, h);
     for (dst, src) in image.pixels_mut().iter_mut().zip(data.chunks_exact(3)) {
-        *dst = Color::new(src[0], src[1], src[2]);
+        *dst = Vec3::new(src[0], src[1], src[2]);
     }
     Ok(image)
 }

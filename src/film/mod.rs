@@ -4,7 +4,7 @@ pub mod output;
 
 pub use output::{ColorEncoding, Encoding, FileFormat, OutputError, OutputOptions, rgb8_of};
 
-use crate::math::Color;
+use crate::math::{Color, Vec3};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -13,7 +13,9 @@ use std::path::{Path, PathBuf};
 pub struct Image {
     width: u32,
     height: u32,
-    pixels: crate::pages::Zeroed<Color>,
+    /// Three floats a pixel (not the four of [`Color`]): for memory, and so that the
+    /// pixels can be handed over as they are ([`Image::into_floats`]).
+    pixels: crate::pages::Zeroed<Vec3>,
 }
 
 impl Image {
@@ -30,15 +32,15 @@ impl Image {
     }
 
     pub fn pixel(&self, x: u32, y: u32) -> Color {
-        self.pixels[y as usize * self.width as usize + x as usize]
+        self.pixels[y as usize * self.width as usize + x as usize].into()
     }
 
     pub fn set(&mut self, x: u32, y: u32, c: Color) {
-        self.pixels[y as usize * self.width as usize + x as usize] = c;
+        self.pixels[y as usize * self.width as usize + x as usize] = c.into();
     }
 
     /// All pixels, row after row: renderers fill tiles of rows in parallel.
-    pub fn pixels_mut(&mut self) -> &mut [Color] {
+    pub fn pixels_mut(&mut self) -> &mut [Vec3] {
         &mut self.pixels
     }
 
@@ -47,7 +49,7 @@ impl Image {
     /// (to numpy) without writing it twice. (A copy only if the cast is refused.)
     pub fn into_floats(self) -> (Vec<f32>, usize) {
         let (buf, start) = self.pixels.into_parts();
-        match bytemuck::allocation::try_cast_vec::<Color, f32>(buf) {
+        match bytemuck::allocation::try_cast_vec::<Vec3, f32>(buf) {
             Ok(floats) => (floats, start * 3),
             Err((_, buf)) => (bytemuck::cast_slice(&buf[start..]).to_vec(), 0),
         }

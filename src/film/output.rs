@@ -199,7 +199,7 @@ pub(super) fn encode_to(image: &Image, enc: Encoding, w: &mut (impl Write + Seek
 fn write_exr(image: &Image, half: bool, w: &mut (impl Write + Seek)) -> Result<(), String> {
     use exr::prelude::{self as x, WritableImage};
     let size = (image.width as usize, image.height as usize);
-    let at = |p: x::Vec2<usize>| -> Color { image.pixels[p.y() * size.0 + p.x()] };
+    let at = |p: x::Vec2<usize>| -> Color { image.pixels[p.y() * size.0 + p.x()].into() };
     let result = if half {
         let h = |v: f32| x::f16::from_f32(v);
         let channels = x::SpecificChannels::rgb(|p: x::Vec2<usize>| {

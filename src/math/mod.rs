@@ -5,7 +5,12 @@ pub mod lanes;
 pub use glam::{Vec2, Vec3};
 
 /// Linear RGB; components are not clamped until the film writes them out.
-pub type Color = Vec3;
+///
+/// Four floats in one SIMD register (the fourth unused), so that shading's sums and
+/// products are one instruction, not three: the same IEEE operations lane by lane, so
+/// the same colours as three separate floats (docs/performance.md, stop 57). Large
+/// buffers (the film, texture maps) keep three floats a colour.
+pub type Color = glam::Vec3A;
 
 /// A half-line `origin + t * dir`. `dir` is kept unit length so `t` is a distance,
 /// which the shading code and the epsilon offsets rely on.

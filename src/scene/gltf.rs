@@ -293,15 +293,15 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
             return;
         }
         let light = match light.kind() {
-            Kind::Point => Light::Point(PointLight::new(position, color)),
-            Kind::Directional => Light::Directional(DirectionalLight::new(direction, color)),
+            Kind::Point => Light::Point(PointLight::new(position, color.into())),
+            Kind::Directional => Light::Directional(DirectionalLight::new(direction, color.into())),
             Kind::Spot { inner_cone_angle, outer_cone_angle } => {
                 let (inner, outer) = (inner_cone_angle.to_degrees(), outer_cone_angle.to_degrees());
                 if !(inner.is_finite() && outer.is_finite() && 0.0 <= inner && inner <= outer && outer < 90.0) {
                     self.warn("spot lights whose cone angles are not 0 <= inner <= outer < 90 degrees are skipped");
                     return;
                 }
-                Light::Spot(SpotLight::new(position, direction, inner, outer, color))
+                Light::Spot(SpotLight::new(position, direction, inner, outer, color.into()))
             }
         };
         self.lights.push((light, intensity));
@@ -455,7 +455,7 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
         }
         let pbr = m.pbr_metallic_roughness();
         let [r, g, b, a] = pbr.base_color_factor();
-        let factor = Vec3::new(r, g, b);
+        let factor = crate::math::Color::new(r, g, b);
         if a < 1.0 || m.alpha_mode() != gltf::material::AlphaMode::Opaque {
             self.warn("alpha (cut-outs and blending) is not supported: surfaces are opaque");
         }
@@ -470,7 +470,7 @@ impl<F: Fn(String) -> SceneError> Reader<'_, F> {
             } else {
                 let image = info.texture().source();
                 let map = self.image(&image)?;
-                let map = if factor == Vec3::ONE {
+                let map = if factor == crate::math::Color::ONE {
                     map
                 } else {
                     let tinted = ImageMap::from_fn(map.width(), map.height(), |x, y| map.texel(x, y) * factor);

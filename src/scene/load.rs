@@ -399,7 +399,7 @@ impl Ctx<'_> {
     fn color(&self, v: &S<V3>, field: &str) -> R<Color> {
         let c = self.vec3(v, field)?;
         if c.min_element() >= 0.0 {
-            Ok(c)
+            Ok(c.into())
         } else {
             Err(self.err(v, field, format!("colour components must be >= 0 (got {c})")))
         }

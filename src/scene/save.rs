@@ -107,7 +107,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
     let _ = writeln!(
         s,
         "\n[settings]\nbackground = {}\nmax_depth = {}\nsamples = {}\nambient = {}\ncutoff = {}",
-        vec3(st.background)?,
+        vec3(Vec3::from(st.background))?,
         st.max_depth,
         st.samples,
         num(st.ambient)?,
@@ -119,23 +119,23 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
     for l in &scene.lights {
         match l {
             Light::Point(p) => {
-                let _ = writeln!(s, "\n[[light]]\nposition = {}", vec3(p.position)?);
+                let _ = writeln!(s, "\n[[light]]\nposition = {}", vec3(Vec3::from(p.position))?);
             }
             Light::Directional(d) => {
-                let _ = writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(d.direction)?);
+                let _ = writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(Vec3::from(d.direction))?);
             }
             Light::Spot(p) => {
                 let _ = writeln!(
                     s,
                     "\n[[light]]\nkind = \"spot\"\nposition = {}\ndirection = {}\ninner_angle = {}\nouter_angle = {}",
-                    vec3(p.position)?,
-                    vec3(p.direction)?,
+                    vec3(Vec3::from(p.position))?,
+                    vec3(Vec3::from(p.direction))?,
                     num(p.inner_angle)?,
                     num(p.outer_angle)?
                 );
             }
         }
-        let _ = writeln!(s, "color = {}", vec3(l.color())?);
+        let _ = writeln!(s, "color = {}", vec3(Vec3::from(l.color()))?);
         if let Some(a) = l.attenuation().filter(|a| !a.is_none()) {
             let _ = writeln!(s, "attenuation = [{}, {}, {}]", num(a.constant)?, num(a.linear)?, num(a.quadratic)?);
         }
@@ -147,16 +147,16 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
         let _ = writeln!(s, "\n[material.{}]", key(&names[i]));
         match &m.texture {
             Texture::Solid(c) => {
-                let _ = writeln!(s, "color = {}", vec3(*c)?);
+                let _ = writeln!(s, "color = {}", vec3(Vec3::from(*c))?);
             }
             Texture::Stripes { axis, width, colors } => {
                 let _ = writeln!(
                     s,
                     "texture = {{ kind = \"stripes\", axis = {}, width = {}, colors = [{}, {}] }}",
-                    vec3(*axis)?,
+                    vec3(Vec3::from(*axis))?,
                     num(*width)?,
-                    vec3(colors[0])?,
-                    vec3(colors[1])?
+                    vec3(Vec3::from(colors[0]))?,
+                    vec3(Vec3::from(colors[1]))?
                 );
             }
             Texture::Checker { size, offset, colors } => {
@@ -164,9 +164,9 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                     s,
                     "texture = {{ kind = \"checker\", size = {}, offset = {}, colors = [{}, {}] }}",
                     num(*size)?,
-                    vec3(*offset)?,
-                    vec3(colors[0])?,
-                    vec3(colors[1])?
+                    vec3(Vec3::from(*offset))?,
+                    vec3(Vec3::from(colors[0]))?,
+                    vec3(Vec3::from(colors[1]))?
                 );
             }
             Texture::Image { .. } => {
@@ -193,7 +193,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
             let _ = writeln!(s, "fresnel = true");
         }
         if m.absorbs() {
-            let _ = writeln!(s, "absorption = {}", vec3(m.absorption)?);
+            let _ = writeln!(s, "absorption = {}", vec3(Vec3::from(m.absorption))?);
         }
     }
     flush(&mut s, out)?;

@@ -18,7 +18,9 @@ use crate::math::{Color, Vec2, Vec3};
 pub struct ImageMap {
     width: u32,
     height: u32,
-    texels: Vec<Color>,
+    /// Three floats a texel, not the four of a [`Color`]: a map's memory is counted
+    /// against [`super::MAX_TEXTURE_BYTES`].
+    texels: Vec<Vec3>,
 }
 
 impl ImageMap {
@@ -29,11 +31,11 @@ impl ImageMap {
     /// [`TextureError::Empty`] instead).
     pub fn from_fn(width: u32, height: u32, f: impl Fn(u32, u32) -> Color) -> Self {
         let texels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y)));
-        Self::from_texels(width, height, texels.map(|(x, y)| f(x, y)).collect())
+        Self::from_texels(width, height, texels.map(|(x, y)| f(x, y).into()).collect())
     }
 
     /// For producers that fill the texels themselves (in parallel, say).
-    pub(crate) fn from_texels(width: u32, height: u32, texels: Vec<Color>) -> Self {
+    pub(crate) fn from_texels(width: u32, height: u32, texels: Vec<Vec3>) -> Self {
         assert!(width > 0 && height > 0, "image map must not be empty ({width}x{height})");
         assert_eq!(texels.len(), width as usize * height as usize);
         ImageMap { width, height, texels }
@@ -125,7 +127,7 @@ impl ImageMap {
     }
 
     /// Row-major, top row first.
-    pub fn texels(&self) -> &[Color] {
+    pub fn texels(&self) -> &[Vec3] {
         &self.texels
     }
 
@@ -133,7 +135,7 @@ impl ImageMap {
     /// If `(x, y)` is outside the map.
     pub fn texel(&self, x: u32, y: u32) -> Color {
         assert!(x < self.width && y < self.height, "texel ({x}, {y}) outside the map");
-        self.texels[y as usize * self.width as usize + x as usize]
+        self.texels[y as usize * self.width as usize + x as usize].into()
     }
 
     /// Bilinear lookup with texel centres at `(i + 0.5) / width`. `u` wraps around, so on
@@ -161,8 +163,9 @@ impl ImageMap {
 
         let row0 = &self.texels[y0 * w..(y0 + 1) * w];
         let row1 = &self.texels[y1 * w..(y1 + 1) * w];
-        let top = row0[x0].lerp(row0[x1], fx);
-        let bottom = row1[x0].lerp(row1[x1], fx);
+        let at = |row: &[Vec3], x: usize| Color::from(row[x]);
+        let top = at(row0, x0).lerp(at(row0, x1), fx);
+        let bottom = at(row1, x0).lerp(at(row1, x1), fx);
         top.lerp(bottom, fy)
     }
 
@@ -191,21 +194,21 @@ mod tests {
 
     /// 3 x 2 map with distinct, exactly representable texels.
     fn map() -> ImageMap {
-        ImageMap::from_fn(3, 2, |x, y| Vec3::new(x as f32 / 4.0, y as f32 / 2.0, 0.25))
+        ImageMap::from_fn(3, 2, |x, y| Color::new(x as f32 / 4.0, y as f32 / 2.0, 0.25))
     }
 
     #[test]
     fn from_fn_stores_rows_top_first() {
         let m = map();
         assert_eq!((m.width(), m.height()), (3, 2));
-        assert_eq!(m.texel(2, 0), Vec3::new(0.5, 0.0, 0.25));
+        assert_eq!(m.texel(2, 0), Color::new(0.5, 0.0, 0.25));
         assert_eq!(m.texels()[3], Vec3::new(0.0, 0.5, 0.25));
     }
 
     #[test]
     #[should_panic(expected = "empty")]
     fn from_fn_refuses_an_empty_map() {
-        let _ = ImageMap::from_fn(0, 4, |_, _| Vec3::ZERO);
+        let _ = ImageMap::from_fn(0, 4, |_, _| Color::ZERO);
     }
 
     #[test]
@@ -259,21 +262,21 @@ mod tests {
         for uv in [Vec2::NAN, Vec2::new(f32::NAN, 0.5), Vec2::new(0.5, f32::NAN)] {
             assert!(m.sample(uv).is_finite());
         }
-        let one = ImageMap::from_fn(1, 1, |_, _| Vec3::ONE);
-        assert_eq!(one.sample(Vec2::NAN), Vec3::ONE);
-        assert_eq!(one.sample(Vec2::new(0.3, 0.9)), Vec3::ONE);
+        let one = ImageMap::from_fn(1, 1, |_, _| Color::ONE);
+        assert_eq!(one.sample(Vec2::NAN), Color::ONE);
+        assert_eq!(one.sample(Vec2::new(0.3, 0.9)), Color::ONE);
     }
 
     #[test]
     fn png_round_trips_through_load_without_gamma() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("map.png");
-        let m = ImageMap::from_fn(5, 3, |x, y| Vec3::new(x as f32 * 51.0, y as f32 * 100.0, 128.0) / 255.0);
+        let m = ImageMap::from_fn(5, 3, |x, y| Color::new(x as f32 * 51.0, y as f32 * 100.0, 128.0) / 255.0);
         m.save_png(&path).unwrap();
         let loaded = ImageMap::load(&path).unwrap();
         assert_eq!((loaded.width(), loaded.height()), (5, 3));
         for (a, b) in loaded.texels().iter().zip(m.texels()) {
-            assert!(close(*a, *b), "{a} vs {b}");
+            assert!(close((*a).into(), (*b).into()), "{a} vs {b}");
         }
         // Mid-grey stays mid-grey: no sRGB decoding on the way in.
         assert!((loaded.texel(0, 0).z - 128.0 / 255.0).abs() < 1e-6);
@@ -289,7 +292,7 @@ mod tests {
         std::fs::write(&path, jpeg).unwrap();
         let loaded = ImageMap::load(&path).unwrap();
         assert_eq!((loaded.width(), loaded.height()), (8, 8));
-        assert!((loaded.texel(3, 3) - Vec3::splat(128.0 / 255.0)).abs().max_element() < 0.02);
+        assert!((loaded.texel(3, 3) - Color::splat(128.0 / 255.0)).abs().max_element() < 0.02);
     }
 
     #[test]

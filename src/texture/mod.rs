@@ -164,8 +164,8 @@ impl std::error::Error for TextureError {
 mod tests {
     use super::*;
 
-    const BLACK: Color = Vec3::ZERO;
-    const WHITE: Color = Vec3::ONE;
+    const BLACK: Color = Color::ZERO;
+    const WHITE: Color = Color::ONE;
 
     fn stripes() -> Texture {
         Texture::Stripes { axis: Vec3::X, width: 2.0, colors: [BLACK, WHITE] }
@@ -237,7 +237,7 @@ mod tests {
     }
 
     fn two_by_two() -> Arc<ImageMap> {
-        let texels = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::ONE];
+        let texels = [Color::X, Color::Y, Color::Z, Color::ONE];
         Arc::new(ImageMap::from_fn(2, 2, |x, y| texels[(y * 2 + x) as usize]))
     }
 
@@ -248,11 +248,11 @@ mod tests {
         // uv 0.125 -> 0.25: centre of texel (0, 0); uv 0.625 -> 1.25 -> 0.25 again.
         let a = t.color(Vec3::ZERO, Vec2::splat(0.125));
         let b = t.color(Vec3::ZERO, Vec2::splat(0.625));
-        assert!((a - Vec3::X).abs().max_element() < 1e-5, "{a}");
-        assert!((b - Vec3::X).abs().max_element() < 1e-5, "{b}");
+        assert!((a - Color::X).abs().max_element() < 1e-5, "{a}");
+        assert!((b - Color::X).abs().max_element() < 1e-5, "{b}");
         let shifted = Texture::Image { map, scale: Vec2::ONE, offset: Vec2::new(0.5, 0.0) };
         let c = shifted.color(Vec3::ZERO, Vec2::splat(0.25));
-        assert!((c - Vec3::Y).abs().max_element() < 1e-5, "{c}");
+        assert!((c - Color::Y).abs().max_element() < 1e-5, "{c}");
     }
 
     #[test]

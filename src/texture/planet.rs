@@ -81,7 +81,7 @@ pub fn planet(width: u32, height: u32, seed: u64) -> ImageMap {
         }
     });
 
-    let mut texels = vec![Color::ZERO; w * h];
+    let mut texels = vec![Vec3::ZERO; w * h];
     texels.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
         let lat = latitude(y, h);
         let at = |y: usize| &cells[y * w..][..w];
@@ -95,7 +95,7 @@ pub fn planet(width: u32, height: u32, seed: u64) -> ImageMap {
             let (left, right) = (if x == 0 { w - 1 } else { x - 1 }, if x + 1 == w { 0 } else { x + 1 });
             let slope_east = (here[right].elevation - here[left].elevation) / (2.0 * dx);
             let slope_north = (above[x].elevation - below[x].elevation) / (2.0 * dy);
-            *texel = shade(&here[x], slope_east, slope_north, &band);
+            *texel = shade(&here[x], slope_east, slope_north, &band).into();
         }
     });
     ImageMap::from_texels(width, height, texels)
@@ -380,19 +380,19 @@ impl World {
     }
 }
 
-const DEEP_OCEAN: Color = Vec3::new(0.02, 0.05, 0.20);
-const OCEAN: Color = Vec3::new(0.04, 0.13, 0.38);
-const SHALLOW: Color = Vec3::new(0.10, 0.33, 0.58);
-const BEACH: Color = Vec3::new(0.72, 0.67, 0.48);
-const FOREST: Color = Vec3::new(0.10, 0.28, 0.09);
-const GRASS: Color = Vec3::new(0.26, 0.45, 0.15);
-const SAVANNA: Color = Vec3::new(0.55, 0.52, 0.28);
-const DESERT: Color = Vec3::new(0.80, 0.67, 0.45);
-const TUNDRA: Color = Vec3::new(0.42, 0.43, 0.33);
-const HIGHLAND: Color = Vec3::new(0.44, 0.35, 0.23);
-const ROCK: Color = Vec3::new(0.47, 0.44, 0.41);
-const SNOW: Color = Vec3::new(0.95, 0.95, 0.97);
-const ICE: Color = Vec3::new(0.92, 0.95, 0.99);
+const DEEP_OCEAN: Color = Color::new(0.02, 0.05, 0.20);
+const OCEAN: Color = Color::new(0.04, 0.13, 0.38);
+const SHALLOW: Color = Color::new(0.10, 0.33, 0.58);
+const BEACH: Color = Color::new(0.72, 0.67, 0.48);
+const FOREST: Color = Color::new(0.10, 0.28, 0.09);
+const GRASS: Color = Color::new(0.26, 0.45, 0.15);
+const SAVANNA: Color = Color::new(0.55, 0.52, 0.28);
+const DESERT: Color = Color::new(0.80, 0.67, 0.45);
+const TUNDRA: Color = Color::new(0.42, 0.43, 0.33);
+const HIGHLAND: Color = Color::new(0.44, 0.35, 0.23);
+const ROCK: Color = Color::new(0.47, 0.44, 0.41);
+const SNOW: Color = Color::new(0.95, 0.95, 0.97);
+const ICE: Color = Color::new(0.92, 0.95, 0.99);
 
 /// Sea colour by depth.
 const SEA: [(f32, Color); 3] = [(0.0, SHALLOW), (0.06, OCEAN), (ABYSS, DEEP_OCEAN)];
@@ -532,7 +532,7 @@ mod tests {
     #[test]
     fn planet_has_oceans_land_and_ice() {
         let m = planet(256, 128, 1);
-        let count = |f: fn(Color) -> bool| m.texels().iter().filter(|c| f(**c)).count();
+        let count = |f: fn(Color) -> bool| m.texels().iter().filter(|c| f(Color::from(**c))).count();
         let blue = count(is_ocean);
         let green = count(|c| c.y > c.x && c.y > c.z);
         let white = count(|c| c.min_element() > 0.85);

@@ -54,7 +54,7 @@ pub fn image_size(
 /// Memory an image of this size needs while rendering and writing: the film's linear
 /// colours plus the 8-bit copy encoded to PNG.
 pub fn image_bytes(width: u32, height: u32) -> u64 {
-    width as u64 * height as u64 * (std::mem::size_of::<whitted::math::Color>() as u64 + 3)
+    width as u64 * height as u64 * (std::mem::size_of::<whitted::math::Vec3>() as u64 + 3)
 }
 
 #[cfg(test)]

@@ -78,7 +78,7 @@ fn colour_settings_and_texture_colour_spaces_are_read_and_checked() {
 
     let dir = tempfile::tempdir().unwrap();
     let png = dir.path().join("grey.png");
-    ImageMap::from_fn(1, 1, |_, _| Vec3::splat(188.0 / 255.0)).save_png(&png).unwrap();
+    ImageMap::from_fn(1, 1, |_, _| Color::splat(188.0 / 255.0)).save_png(&png).unwrap();
     let texel = |space: &str| {
         let src = format!(
             "{CAMERA}[[sphere]]\ncenter = [0, 0, -5]\nradius = 1\n\

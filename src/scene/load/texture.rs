@@ -54,7 +54,7 @@ impl Ctx<'_> {
                     Err(self.err(c, "colors", "colours must be finite and >= 0"))
                 }
             };
-            Ok([check(a)?, check(b)?])
+            Ok([check(a)?.into(), check(b)?.into()])
         };
         let vec2 = |v: &Option<S<Vec<f32>>>, field: &str, default: Vec2| -> R<Vec2> {
             match v {

@@ -361,7 +361,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
                 Cmd::View => self.view(&e, tok)?,
                 Cmd::Background => {
                     let c = self.vec3(&e, "3 numbers (r g b)", 0)?;
-                    self.background = self.color(&e, c)?;
+                    self.background = self.color(&e, c.into())?;
                     self.counts.backgrounds += 1;
                 }
                 Cmd::Light => self.light(&e)?,
@@ -445,7 +445,7 @@ impl<'a, R: BufRead> Parser<'a, R> {
         let color = match next {
             Some(t) if parse_f32(self.lex.text(t)).is_some() => {
                 let c = self.vec3(e, want, 3)?;
-                Some(self.color(e, c)?)
+                Some(self.color(e, c.into())?)
             }
             _ => None,
         };

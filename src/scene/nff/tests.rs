@@ -30,12 +30,12 @@ fn every_entity_is_read() {
     );
     assert_eq!(c.lines, 27);
     let s = &nff.scene;
-    assert_eq!(s.settings.background, Vec3::new(0.1, 0.2, 0.3));
+    assert_eq!(s.settings.background, Color::new(0.1, 0.2, 0.3));
     assert_eq!((s.camera.width, s.camera.height, s.camera.fov), (32, 24, 40.0));
     assert_eq!(s.camera.position, Vec3::new(0.0, 0.0, 5.0));
     let share = 2f32.sqrt() / 4.0;
-    assert_eq!(s.lights[0].color(), Vec3::splat(share));
-    assert_eq!(s.lights[1].color(), Vec3::splat(0.5));
+    assert_eq!(s.lights[0].color(), Color::splat(share));
+    assert_eq!(s.lights[1].color(), Color::splat(0.5));
     assert_eq!(s.settings.ambient, share);
     assert_eq!(s.materials.len(), 2);
     // Grouped by kind: 2 spheres, 1 cylinder, 2 cones, 2 meshes (flat, smooth).
