@@ -358,7 +358,10 @@ fn camera_lights_and_materials_map_and_the_rest_is_warned_about_once() {
     match s.lights[2] {
         Light::Spot(spot) => {
             assert_eq!((spot.position, spot.direction), (Vec3::ZERO, Vec3::NEG_Z));
-            assert!((spot.inner_angle, spot.outer_angle) == (0.0, 45.0) && spot.color == Color::splat(0.01), "{spot:?}");
+            assert!(
+                (spot.inner_angle, spot.outer_angle) == (0.0, 45.0) && spot.color == Color::splat(0.01),
+                "{spot:?}"
+            );
         }
         ref other => panic!("{other:?}"),
     }

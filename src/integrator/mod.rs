@@ -462,8 +462,11 @@ fn towards(light: Vec3, from: Vec3, n: Vec3) -> (Vec3, f32, f32) {
 /// that side, where reflected and shadow rays leave from.
 #[inline(always)]
 fn leaving(ray: &Ray, surface: &Surface) -> (Vec3, Vec3) {
-    let side = if ray.dir.dot(surface.normal) < 0.0 { surface.normal } else { -surface.normal };
-    (side, surface.point + surface_offset(surface.point) * side)
+    use glam::Vec3A;
+    let (d, n, p) = (Vec3A::from(ray.dir), Vec3A::from(surface.normal), Vec3A::from(surface.point));
+    let side = if d.dot(n) < 0.0 { n } else { -n };
+    let offset = 1e-4 * (1.0 + p.abs().max_element());
+    (side.into(), (p + offset * side).into())
 }
 
 #[inline(always)]

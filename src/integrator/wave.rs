@@ -21,6 +21,7 @@ use super::{
 use crate::accel::{LastBlocker, NONE, ShadowLanes, World};
 use crate::geometry::Hit;
 use crate::math::{Aabb, Color, Ray, Vec3};
+use glam::Vec3A;
 
 /// Camera rays in one wave at most: callers split larger batches.
 pub const WAVE_RAYS: usize = 1024;
@@ -115,7 +116,8 @@ impl Wave {
         let culls = world.culls() && !integrator.one_sided;
         let absorbs = world.absorbs();
         // Hits come in runs on one object: each run's box is grown on its own, then merged.
-        let mut run: Option<(u32, Aabb)> = None;
+        // (Its corners as Vec3A: one instruction for each of min and max, not three.)
+        let mut run: Option<(u32, Vec3A, Vec3A)> = None;
         for (k, (ray, found)) in level.iter().enumerate() {
             let Some((hit, index)) = found else {
                 surfaces.push(PackedSurface::default());
@@ -138,11 +140,11 @@ impl Wave {
                 continue;
             }
             // The box holds where the shadow rays start.
-            let p = s.from;
+            let p = Vec3A::from(s.from);
             match &mut run {
-                Some((o, b)) if o == index => *b = b.grow(p),
+                Some((o, lo, hi)) if o == index => (*lo, *hi) = (lo.min(p), hi.max(p)),
                 _ => {
-                    if let Some(done) = run.replace((*index, Aabb::EMPTY.grow(p))) {
+                    if let Some(done) = run.replace((*index, p, p)) {
                         merge_box(boxes, done);
                     }
                 }
@@ -324,7 +326,8 @@ fn group_key((object, slot): (u32, u32)) -> u64 {
 }
 
 /// `run`, a box round hits on one object, merged into that object's box in `boxes`.
-fn merge_box(boxes: &mut Vec<(u32, Aabb)>, (i, run): (u32, Aabb)) {
+fn merge_box(boxes: &mut Vec<(u32, Aabb)>, (i, lo, hi): (u32, Vec3A, Vec3A)) {
+    let run = Aabb { min: lo.into(), max: hi.into() };
     if let Some((o, b)) = boxes.last_mut()
         && *o == i
     {

@@ -122,7 +122,8 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                 let _ = writeln!(s, "\n[[light]]\nposition = {}", vec3(Vec3::from(p.position))?);
             }
             Light::Directional(d) => {
-                let _ = writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(Vec3::from(d.direction))?);
+                let _ =
+                    writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(Vec3::from(d.direction))?);
             }
             Light::Spot(p) => {
                 let _ = writeln!(
