@@ -410,7 +410,7 @@ impl<'s> Renderer<'s> {
         let mut top = y0;
         let mut trace = |points: &mut Vec<Vec2>, rows: (u32, u32), pixels: &mut Vec<Color>| {
             rays.clear();
-            rig.rays(points, |ray| rays.push(ray));
+            rig.rays(points, rays);
             let cone = rig.cone(x0 as f32, rows.0 as f32, x1 as f32, rows.1 as f32);
             wave.trace(integrator, rays, Some(cone), colors, stats);
             sum.add(colors, self.spp, pixels);

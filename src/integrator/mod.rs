@@ -333,52 +333,62 @@ impl PackedSurface {
 }
 
 /// The hits of one level of a [`Wave`] that lights may change, eight to a block, lane
-/// by lane (the layout [`towards_lanes`] reads): each one's index in the level, and per
-/// block of eight the objects they are on ([`crate::accel::NONE`] in the lanes past the
-/// last), where their shadow rays leave from and the normals lights are judged by.
+/// by lane (the layout [`towards_lanes`] reads): per block, the hits' indices in the
+/// level, the objects they are on ([`crate::accel::NONE`] in the lanes past the last),
+/// where their shadow rays leave from and the normals lights are judged by.
 #[derive(Clone, Debug, Default)]
 pub struct LightFrames {
-    nodes: Vec<u32>,
+    /// Hits pushed so far.
+    len: usize,
     blocks: Vec<FrameBlock>,
 }
 
 /// Eight hits of [`LightFrames`], lane by lane: one block, so that a hit is added with
-/// one bounds check rather than one per array.
+/// one bounds check rather than one per array, and its lanes are read without any.
 #[derive(Clone, Copy, Debug)]
 pub struct FrameBlock {
+    /// The hits' indices in the level (the lanes past `lanes` unused).
+    pub nodes: [u32; 8],
+    /// Lanes in use, 1 to 8.
+    pub lanes: usize,
     pub objects: [u32; 8],
     pub from: [[f32; 8]; 3],
     pub normal: [[f32; 8]; 3],
 }
 
 impl FrameBlock {
-    const EMPTY: FrameBlock =
-        FrameBlock { objects: [crate::accel::NONE; 8], from: [[0.0; 8]; 3], normal: [[0.0; 8]; 3] };
+    const EMPTY: FrameBlock = FrameBlock {
+        nodes: [0; 8],
+        lanes: 0,
+        objects: [crate::accel::NONE; 8],
+        from: [[0.0; 8]; 3],
+        normal: [[0.0; 8]; 3],
+    };
 }
 
 impl LightFrames {
     pub fn clear(&mut self) {
-        self.nodes.clear();
+        self.len = 0;
         self.blocks.clear();
     }
 
     #[inline(always)]
     pub fn push(&mut self, node: u32, object: u32, (from, normal): (Vec3, Vec3)) {
-        let lane = self.nodes.len() % 8;
+        let lane = self.len % 8;
         if lane == 0 {
             self.blocks.push(FrameBlock::EMPTY);
         }
         let block = self.blocks.last_mut().expect("pushed");
-        block.objects[lane] = object;
+        (block.nodes[lane], block.objects[lane], block.lanes) = (node, object, lane + 1);
         for (axis, (a, b)) in from.to_array().into_iter().zip(normal.to_array()).enumerate() {
             (block.from[axis][lane], block.normal[axis][lane]) = (a, b);
         }
-        self.nodes.push(node);
+        self.len += 1;
     }
 
-    /// The hits eight at a time: their indices in the level, and their block.
-    pub fn blocks(&self) -> impl Iterator<Item = (&[u32], &FrameBlock)> {
-        self.nodes.chunks(8).zip(&self.blocks)
+    /// The hits eight at a time.
+    pub fn blocks(&self) -> &[FrameBlock] {
+        &self.blocks
     }
 }
 

@@ -162,13 +162,13 @@ impl Wave {
             // What blocked the last of this light's shadow rays, to try first.
             let mut last = LastBlocker::default();
             let color = light.color();
-            for (nodes, FrameBlock { objects, from, normal }) in frames.blocks() {
+            for FrameBlock { nodes, lanes, objects, from, normal } in frames.blocks() {
                 let seen = towards_light_lanes(light, from, normal);
                 // Every lane's falloff, then those of the lanes lit from the front (the
                 // others' is 0): without a branch a lane, for the lanes to go together.
                 let falloff: [f32; 8] = std::array::from_fn(|lane| {
                     let falloff = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
-                    if seen.n_dot_l[lane] > 0.0 && lane < nodes.len() { falloff } else { 0.0 }
+                    if seen.n_dot_l[lane] > 0.0 && lane < *lanes { falloff } else { 0.0 }
                 });
                 let live = (0..8).fold(0u32, |live, lane| live | ((falloff[lane] > 0.0) as u32) << lane);
                 // The objects the rays leave, on the light's side where shading is two-sided.
@@ -178,7 +178,7 @@ impl Wave {
                 stats.shadow += u64::from(live.count_ones());
                 for (lane, &k) in nodes.iter().enumerate() {
                     if live >> lane & 1 == 0 {
-                        continue; // the light is behind the surface
+                        continue; // the light is behind the surface, or no hit
                     }
                     let material = integrator.material(objects[lane]);
                     let l = lane_of(&seen.l, lane);
@@ -194,11 +194,10 @@ impl Wave {
                 }
             }
         }
-        for (k, (_, found)) in level.iter().enumerate() {
-            let (weight, sample) = paths[k];
+        for (((_, found), &(weight, sample)), s) in level.iter().zip(paths.iter()).zip(shading.iter()) {
             let color = match found {
                 None => integrator.background(),
-                Some((_, index)) => integrator.own_color(&shading[k], integrator.material(*index)),
+                Some((_, index)) => integrator.own_color(s, integrator.material(*index)),
             };
             colors[sample as usize] += weight * color;
         }
