@@ -75,7 +75,9 @@ fn key(name: &str) -> String {
     }
 }
 
-fn vec3(v: Vec3) -> Result<String, SaveError> {
+/// A point, direction or colour ([`crate::math::Color`]) as a TOML array.
+fn vec3(v: impl Into<Vec3>) -> Result<String, SaveError> {
+    let v = v.into();
     Ok(format!("[{}, {}, {}]", num(v.x)?, num(v.y)?, num(v.z)?))
 }
 
@@ -107,7 +109,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
     let _ = writeln!(
         s,
         "\n[settings]\nbackground = {}\nmax_depth = {}\nsamples = {}\nambient = {}\ncutoff = {}",
-        vec3(Vec3::from(st.background))?,
+        vec3(st.background)?,
         st.max_depth,
         st.samples,
         num(st.ambient)?,
@@ -119,24 +121,23 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
     for l in &scene.lights {
         match l {
             Light::Point(p) => {
-                let _ = writeln!(s, "\n[[light]]\nposition = {}", vec3(Vec3::from(p.position))?);
+                let _ = writeln!(s, "\n[[light]]\nposition = {}", vec3(p.position)?);
             }
             Light::Directional(d) => {
-                let _ =
-                    writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(Vec3::from(d.direction))?);
+                let _ = writeln!(s, "\n[[light]]\nkind = \"directional\"\ndirection = {}", vec3(d.direction)?);
             }
             Light::Spot(p) => {
                 let _ = writeln!(
                     s,
                     "\n[[light]]\nkind = \"spot\"\nposition = {}\ndirection = {}\ninner_angle = {}\nouter_angle = {}",
-                    vec3(Vec3::from(p.position))?,
-                    vec3(Vec3::from(p.direction))?,
+                    vec3(p.position)?,
+                    vec3(p.direction)?,
                     num(p.inner_angle)?,
                     num(p.outer_angle)?
                 );
             }
         }
-        let _ = writeln!(s, "color = {}", vec3(Vec3::from(l.color()))?);
+        let _ = writeln!(s, "color = {}", vec3(l.color())?);
         if let Some(a) = l.attenuation().filter(|a| !a.is_none()) {
             let _ = writeln!(s, "attenuation = [{}, {}, {}]", num(a.constant)?, num(a.linear)?, num(a.quadratic)?);
         }
@@ -148,16 +149,16 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
         let _ = writeln!(s, "\n[material.{}]", key(&names[i]));
         match &m.texture {
             Texture::Solid(c) => {
-                let _ = writeln!(s, "color = {}", vec3(Vec3::from(*c))?);
+                let _ = writeln!(s, "color = {}", vec3(*c)?);
             }
             Texture::Stripes { axis, width, colors } => {
                 let _ = writeln!(
                     s,
                     "texture = {{ kind = \"stripes\", axis = {}, width = {}, colors = [{}, {}] }}",
-                    vec3(Vec3::from(*axis))?,
+                    vec3(*axis)?,
                     num(*width)?,
-                    vec3(Vec3::from(colors[0]))?,
-                    vec3(Vec3::from(colors[1]))?
+                    vec3(colors[0])?,
+                    vec3(colors[1])?
                 );
             }
             Texture::Checker { size, offset, colors } => {
@@ -165,9 +166,9 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
                     s,
                     "texture = {{ kind = \"checker\", size = {}, offset = {}, colors = [{}, {}] }}",
                     num(*size)?,
-                    vec3(Vec3::from(*offset))?,
-                    vec3(Vec3::from(colors[0]))?,
-                    vec3(Vec3::from(colors[1]))?
+                    vec3(*offset)?,
+                    vec3(colors[0])?,
+                    vec3(colors[1])?
                 );
             }
             Texture::Image { .. } => {
@@ -194,7 +195,7 @@ pub fn write_toml(scene: &Scene, note: &str, out: &mut impl Write) -> Result<(),
             let _ = writeln!(s, "fresnel = true");
         }
         if m.absorbs() {
-            let _ = writeln!(s, "absorption = {}", vec3(Vec3::from(m.absorption))?);
+            let _ = writeln!(s, "absorption = {}", vec3(m.absorption)?);
         }
     }
     flush(&mut s, out)?;
