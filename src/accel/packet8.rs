@@ -32,8 +32,8 @@ impl Rays8 {
     /// Lanes past the end of `rays` repeat its first ray (their answers are not read).
     ///
     /// Each ray read as two vectors (its origin and the direction's x; the direction's
-    /// y and z), turned into rows by shuffles four rays at a time: some 50 instructions
-    /// where a float at a time into arrays took 130 (2 % of a room render).
+    /// y and z), turned into rows by shuffles four rays at a time: about 60 instructions
+    /// where a float at a time into arrays took 130 (1 % of a room render's).
     #[target_feature(enable = "avx2")]
     pub fn new<T>(rays: &[(Ray, T)]) -> Self {
         let ray = |lane: usize| &rays[if lane < rays.len() { lane } else { 0 }].0;

@@ -475,8 +475,7 @@ fn leaving(ray: &Ray, surface: &Surface) -> (Vec3, Vec3) {
     use glam::Vec3A;
     let (d, n, p) = (Vec3A::from(ray.dir), Vec3A::from(surface.normal), Vec3A::from(surface.point));
     let side = if d.dot(n) < 0.0 { n } else { -n };
-    let offset = 1e-4 * (1.0 + p.abs().max_element());
-    (side.into(), (p + offset * side).into())
+    (side.into(), (p + surface_offset(p) * side).into())
 }
 
 #[inline(always)]

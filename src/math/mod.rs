@@ -61,8 +61,11 @@ impl Aabb {
 /// How far a new ray's origin is pushed off the surface it starts on, so it does not
 /// hit that surface again (shadow acne). Relative to the point's magnitude because f32
 /// spacing grows with it: about 12 ulps at any scale.
-pub fn surface_offset(p: Vec3) -> f32 {
-    1e-4 * (1.0 + p.abs().max_element())
+/// (Worked in `Vec3A`, which takes the same largest component, for callers that hold
+/// the point in one already.)
+#[inline(always)]
+pub fn surface_offset(p: impl Into<glam::Vec3A>) -> f32 {
+    1e-4 * (1.0 + p.into().abs().max_element())
 }
 
 /// `v` scaled to unit length (`fallback` if it cannot be), or `v` itself when it already
