@@ -402,6 +402,36 @@ fn each_range(
 ) {
     let (lo, hi) = (b.min - at, b.max - at);
     let unbounded = !(lo.is_finite() && hi.is_finite());
+    // Per axis, the box's least distance from the light's plane across it. (As arrays:
+    // a `Vec3` indexed by a variable takes a branch per read.)
+    let least = lo.max(-hi).max(Vec3::ZERO).to_array();
+    let (lo, hi) = (lo.to_array(), hi.to_array());
+    // A box well inside one face's directions (|x| < z throughout, with a margin no
+    // rounding crosses) is on that face alone: its ranges at once, not six faces' tests
+    // (most of a sphereflake's spheres).
+    let far: [f32; 3] = std::array::from_fn(|k| lo[k].abs().max(hi[k].abs()));
+    let axis = if far[0] >= far[1] && far[0] >= far[2] {
+        0
+    } else if far[1] >= far[2] {
+        1
+    } else {
+        2
+    };
+    let (ua, va) = [(1, 2), (0, 2), (0, 1)][axis];
+    let (face, z0, z1) =
+        if lo[axis] > 0.0 { (2 * axis, lo[axis], hi[axis]) } else { (2 * axis + 1, -hi[axis], -lo[axis]) };
+    let within = z0 * (1.0 - 4.0 * EDGE);
+    if !unbounded && z0 > 0.0 && far[ua] < within && far[va] < within {
+        let range = |x0: f32, x1: f32| {
+            let min = if x0 >= 0.0 { x0 / z1 } else { x0 / z0 };
+            let max = if x1 <= 0.0 { x1 / z1 } else { x1 / z0 };
+            (min - EDGE, max + EDGE)
+        };
+        let (u, v) = (range(lo[ua], hi[ua]), range(lo[va], hi[va]));
+        let cell = |s: f32| (((s.clamp(-1.0, 1.0) + 1.0) * 0.5 * n as f32) as usize).min(n - 1);
+        f(face, cell(u.0)..=cell(u.1), cell(v.0)..=cell(v.1));
+        return;
+    }
     for face in 0..6 {
         if unbounded {
             // In every cell.
@@ -412,7 +442,10 @@ fn each_range(
         let (ua, va) = [(1, 2), (0, 2), (0, 1)][axis];
         // How far along the face's axis the box reaches, facing that way.
         let (z0, z1) = if face % 2 == 0 { (lo[axis], hi[axis]) } else { (-hi[axis], -lo[axis]) };
-        if !(z1 > 0.0) {
+        // Behind the light, or wholly past one of the face's edges (|x / z| > 1), as the
+        // range below would find, cheaply first.
+        let past = z1 * (1.0 + EDGE);
+        if !(z1 > 0.0) || least[ua] > past || least[va] > past {
             continue;
         }
         // Over the box's points in front of the light along this axis (0 < z <= z1),
@@ -433,10 +466,17 @@ fn each_range(
             } else {
                 f32::INFINITY
             };
-            let cell = |s: f32| (((s.clamp(-1.0, 1.0) + 1.0) * 0.5 * n as f32) as usize).min(n - 1);
-            cell(min - EDGE)..=cell(max + EDGE)
+            (min - EDGE, max + EDGE)
         };
-        f(face, range(lo[ua], hi[ua]), range(lo[va], hi[va]));
+        let (u, v) = (range(lo[ua], hi[ua]), range(lo[va], hi[va]));
+        // Not on this face where all of it lies past one of its edges: a small box off the
+        // light's axes lies in front of three faces but on one (clamped to the edge, the
+        // others listed it in their edge cells).
+        if u.0 > 1.0 || u.1 < -1.0 || v.0 > 1.0 || v.1 < -1.0 {
+            continue;
+        }
+        let cell = |s: f32| (((s.clamp(-1.0, 1.0) + 1.0) * 0.5 * n as f32) as usize).min(n - 1);
+        f(face, cell(u.0)..=cell(u.1), cell(v.0)..=cell(v.1));
     }
 }
 
