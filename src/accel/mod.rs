@@ -285,6 +285,9 @@ impl<'s> World<'s> {
             .sum();
         let mut leaves = Vec::with_capacity(entries);
         let mut boxes: Vec<crate::math::Aabb> = Vec::with_capacity(entries);
+        // Per entry, the range of its spheres in `packed` (empty where it is no pack), for
+        // the light buffers' cells to regroup them.
+        let (mut ranges, mut packed) = (Vec::with_capacity(entries), Vec::new());
         let mut round = Vec::new();
         top4.map_leaves(|first, count| {
             let start = leaves.len() as u32;
@@ -292,6 +295,8 @@ impl<'s> World<'s> {
             round.clear();
             round.extend(ids.iter().filter_map(|&i| sphere(i)));
             for chunk in round.chunks(pack) {
+                ranges.push((packed.len() as u32, (packed.len() + chunk.len()) as u32));
+                packed.extend_from_slice(chunk);
                 boxes.push(bound(&mut chunk.iter().map(|&(_, i)| i)));
                 leaves.push(match pack {
                     8 => LeafItem::Spheres8(Sphere8::pack(chunk)),
@@ -299,6 +304,7 @@ impl<'s> World<'s> {
                 });
             }
             boxes.extend(ids.iter().filter(|&&i| sphere(i).is_none()).map(|&i| bound(&mut std::iter::once(i))));
+            ranges.resize(boxes.len(), (0, 0));
             leaves.extend(ids.iter().filter(|&&i| sphere(i).is_none()).map(|&i| {
                 match Inline::of(&scene.objects[i as usize].shape) {
                     Some(shape) => LeafItem::Inline(shape, i),
@@ -344,11 +350,34 @@ impl<'s> World<'s> {
                 });
             }
         }
-        let leaves = crate::pages::on_huge_pages(leaves);
         let avx2 = lanes::avx2();
-        let light_buffers = match buffered {
+        let members = light_buffer::Members {
+            ranges: &ranges,
+            spheres: &packed,
+            width: pack,
+            pack: match pack {
+                8 => |s| LeafItem::Spheres8(Sphere8::pack(s)),
+                _ => |s| LeafItem::Spheres(Sphere4::pack(s)),
+            },
+        };
+        let mut light_buffers = match buffered {
             false => scene.lights.iter().map(|_| None).collect(),
-            true => light_buffer::LightBuffer::for_lights(&scene.lights, &boxes, side),
+            true => light_buffer::LightBuffer::for_lights(&scene.lights, &boxes, side, &members),
+        };
+        // The packs the buffers' cells regrouped spheres into join the entries, in one
+        // fresh array, made there.
+        let packs: usize = light_buffers.iter().flatten().map(|b| b.pack_count()).sum();
+        let leaves = match packs {
+            0 => crate::pages::on_huge_pages(leaves),
+            _ => {
+                let mut all = crate::pages::with_capacity_rounded(leaves.len() + packs);
+                all.extend_from_slice(&leaves);
+                for buffer in light_buffers.iter_mut().flatten() {
+                    let plan = buffer.place_packs(all.len() as u32);
+                    all.extend(plan.packs(&members));
+                }
+                all
+            }
         };
         World {
             scene,

@@ -10,6 +10,10 @@
 //! covers are worked out conservatively), and each is tested as the walk tests it
 //! ([`World::leaf_stops`]), so the answer is the walk's.
 
+mod regroup;
+
+pub(super) use regroup::{Members, Plan};
+
 use super::{Inline, LastBlocker, LeafItem, NONE, ShadowLanes, World};
 use crate::light::Light;
 use crate::math::{Aabb, Ray, Vec3};
@@ -30,6 +34,12 @@ pub(super) struct LightBuffer {
     /// The lists: (leaf entry, its box's distance from the light). The cells that list
     /// one entry alone share one place for it.
     entries: Vec<(u32, f32)>,
+    /// Packs of spheres planned for this buffer's cells ([`regroup`]), until they join
+    /// the world's leaf entries ([`LightBuffer::place_packs`]).
+    packs: Plan,
+    /// How many packs the buffer's cells regrouped spheres into (for the tests).
+    #[cfg_attr(not(test), allow(dead_code))]
+    made: usize,
 }
 
 /// Entries a cell lists at most: past that, a walk of the tree is the quicker test.
@@ -50,7 +60,8 @@ const ALONE: u32 = u32::MAX << LEN_BITS;
 
 /// Entries over all cells a light's buffer may hold, shared places included (eight
 /// bytes each, 4 MiB): a light whose buffer would hold more has none. With
-/// [`MAX_LIGHTS`], memory for buffers stays under 40 MiB however many lights a scene has.
+/// [`MAX_LIGHTS`], memory for buffers stays under 40 MiB however many lights a scene has
+/// (52 MiB with the packs their cells make, [`regroup`]).
 const MAX_ENTRIES: usize = 1 << 19;
 const _: () = assert!(MAX_ENTRIES < 1 << (32 - LEN_BITS));
 
@@ -75,13 +86,18 @@ impl LightBuffer {
     /// Per light of `lights`, its buffer over entries with boxes `boxes` (empty boxes
     /// listed nowhere), `n` cells a side ([`LightBuffer::side`]), where it has one: the
     /// first [`MAX_LIGHTS`] with a position may, built in parallel.
-    pub(super) fn for_lights(lights: &[Light], boxes: &[Aabb], n: usize) -> Vec<Option<LightBuffer>> {
+    pub(super) fn for_lights(
+        lights: &[Light],
+        boxes: &[Aabb],
+        n: usize,
+        members: &Members,
+    ) -> Vec<Option<LightBuffer>> {
         use rayon::prelude::*;
         let placed: Vec<usize> =
             (0..lights.len()).filter(|&k| lights[k].position().is_some()).take(MAX_LIGHTS).collect();
         let built: Vec<_> = match n {
             0 => vec![],
-            _ => placed.par_iter().map(|&k| LightBuffer::build(lights[k].position()?, boxes, n)).collect(),
+            _ => placed.par_iter().map(|&k| LightBuffer::build(lights[k].position()?, boxes, n, members)).collect(),
         };
         let mut buffers: Vec<_> = lights.iter().map(|_| None).collect();
         for (&k, buffer) in placed.iter().zip(built) {
@@ -102,7 +118,7 @@ impl LightBuffer {
     /// The buffer of a light at `at` over leaf entries with boxes `boxes`, `n` cells a
     /// side; `None` where it would hold more than [`MAX_ENTRIES`] or where more of its
     /// cells would be crowded than listed.
-    pub(super) fn build(at: Vec3, boxes: &[Aabb], n: usize) -> Option<LightBuffer> {
+    pub(super) fn build(at: Vec3, boxes: &[Aabb], n: usize, members: &Members) -> Option<LightBuffer> {
         // Shared places come after the lists: each start, up to MAX_ENTRIES plus one per
         // entry, fits its word below ALONE.
         if MAX_ENTRIES + boxes.len() >= (ALONE >> LEN_BITS) as usize {
@@ -121,7 +137,7 @@ impl LightBuffer {
         // of its directions); crowded cells only get more so.
         let mut n = n;
         loop {
-            match LightBuffer::with_cells(at, boxes, &order, n) {
+            match LightBuffer::with_cells(at, boxes, &order, n, members) {
                 Err(Full) if n > 16 => n /= 2,
                 Err(_) => return None,
                 Ok(buffer) => return Some(buffer),
@@ -130,7 +146,13 @@ impl LightBuffer {
     }
 
     /// [`LightBuffer::build`] with `n` cells a side, given the entries in `order`.
-    fn with_cells(at: Vec3, boxes: &[Aabb], order: &[(f32, u32)], n: usize) -> Result<LightBuffer, Unfit> {
+    fn with_cells(
+        at: Vec3,
+        boxes: &[Aabb],
+        order: &[(f32, u32)],
+        n: usize,
+        members: &Members,
+    ) -> Result<LightBuffer, Unfit> {
         // Each entry's cells, face by face ([`Span`]), worked out once for the three
         // passes below (flake build 3.3 to 2.8 ms at 1 thread: docs/performance.md).
         // Only the faces something lies in front of get cells.
@@ -237,8 +259,34 @@ impl LightBuffer {
         if entries.len() > MAX_ENTRIES {
             return Err(Full);
         }
+        let packs = regroup::regroup(at, n, &faces, &mut cells, &mut entries, order, members);
         entries.shrink_to_fit();
-        Ok(LightBuffer { at, n, faces, cells, entries })
+        let made = packs.len();
+        Ok(LightBuffer { at, n, faces, cells, entries, packs, made })
+    }
+
+    /// How many packs were planned for this buffer's cells, not yet placed.
+    pub(super) fn pack_count(&self) -> usize {
+        self.packs.len()
+    }
+
+    /// How many packs the buffer's cells regrouped spheres into.
+    #[cfg(test)]
+    pub(super) fn made(&self) -> usize {
+        self.made
+    }
+
+    /// The packs planned for this buffer's cells, to join the world's leaf entries from
+    /// `base` on; the lists name them there from now on.
+    pub(super) fn place_packs(&mut self, base: u32) -> Plan {
+        for &(start, len) in &self.packs.lists {
+            for (at, _) in &mut self.entries[start as usize..(start + len) as usize] {
+                if *at & regroup::PACKED != 0 {
+                    *at = base + (*at & !regroup::PACKED);
+                }
+            }
+        }
+        std::mem::take(&mut self.packs)
     }
 
     pub(super) fn memory_bytes(&self) -> usize {
@@ -636,7 +684,8 @@ mod tests {
             boxes.push(Aabb { min: c - Vec3::splat(0.2), max: c + Vec3::splat(0.2) });
         }
         let n = 32;
-        let buffer = LightBuffer::build(at, &boxes, n).expect("a buffer");
+        let members = Members { ranges: &[], spheres: &[], width: 8, pack: |_| LeafItem::Other(0) };
+        let buffer = LightBuffer::build(at, &boxes, n, &members).expect("a buffer");
         // The lists as placing each entry in each cell it covers makes them.
         let mut order: Vec<(f32, u32)> =
             boxes.iter().enumerate().map(|(i, b)| (near_distance(at, b), i as u32)).collect();
