@@ -96,6 +96,16 @@ pub(super) fn regroup(
     if spheres.is_empty() {
         return Plan::default();
     }
+    // A first look at the spheres' size beside the cells, from at most 1,024 of them (the
+    // test below, on the spheres that matter, comes after a pass over every cell).
+    let (step, mut looked, mut pairs) = (spheres.len().div_ceil(1024), 0, 0);
+    for (sphere, _) in spheres.iter().step_by(step) {
+        looked += 1;
+        each_range(at, &sphere.bounds(), n, |_, us, vs| pairs += us.count() * vs.count());
+    }
+    if pairs > MAX_CELLS_A_SPHERE * looked {
+        return Plan::default();
+    }
     // The cells that may be regrouped: those listing two entries or more, one of them a
     // pack, in order, with where each row's start among them (counted below by their
     // place here, not in an array as big as the cells: 1.2 MB for a sphereflake's three
