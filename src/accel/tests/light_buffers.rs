@@ -36,7 +36,7 @@ fn shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
             .map(|(k, b)| b.as_ref().unwrap_or_else(|| panic!("no buffer for light {k}, {} entries", bvh.leaves.len())))
             .collect();
         let entries = bvh.leaves.len() as u32;
-        let (mut listed, mut crowded, mut blocked, mut through) = (0, 0, 0, 0);
+        let (mut listed, mut crowded, mut seen) = (0, 0, (0, 0));
         let mut last = LastBlocker::default();
         for i in 0..60_000u32 {
             let k = (i / 64) as usize % lights.len();
@@ -57,24 +57,38 @@ fn shadow_rays_through_light_buffers_get_the_answers_of_testing_everything() {
                 1 | 2 => Vec3::new(34.0, 0.0, 0.0) + v(&mut r, 6.0),
                 _ => v(&mut r, 30.0),
             };
-            let ray = Ray::new(from, at - from);
-            let t_max = (at - from).length();
             match buffers[k].cell_of(from) {
                 Some(list) if !list.is_empty() => listed += 1,
                 Some(_) => {}
                 None => crowded += 1,
             }
-            let want = brute.transmittance(&ray, t_max);
-            assert_eq!(bvh.transmittance_towards(k, &ray, t_max, &mut last), want, "seed {seed}, ray {i}");
-            blocked += (want == 0.0) as u32;
-            through += (want > 0.0 && want < 1.0) as u32;
+            agrees(&bvh, &brute, (k, at), from, &mut last, &mut seen, &format!("seed {seed}, ray {i}"));
             if i % 7 == 0 {
                 last = LastBlocker::at(r.below(entries));
             }
         }
         assert!(listed > 20_000 && crowded > 250, "seed {seed}: {listed} listed, {crowded} crowded");
-        assert!(blocked > 5000 && through > 1000, "seed {seed}: {blocked} blocked, {through} through glass");
+        assert!(seen.0 > 5000 && seen.1 > 1000, "seed {seed}: {seen:?} blocked and through glass");
     }
+}
+
+/// A shadow ray from `from` to light `k` at `at`, through its buffer, gets the answer of
+/// testing every object; counted in `seen` as blocked or as through glass.
+fn agrees(
+    bvh: &World,
+    brute: &World,
+    (k, at): (usize, Vec3),
+    from: Vec3,
+    last: &mut LastBlocker,
+    seen: &mut (u32, u32),
+    what: &str,
+) {
+    let ray = Ray::new(from, at - from);
+    let t_max = (at - from).length();
+    let want = brute.transmittance(&ray, t_max);
+    assert_eq!(bvh.transmittance_towards(k, &ray, t_max, last), want, "{what}");
+    seen.0 += (want == 0.0) as u32;
+    seen.1 += (want > 0.0 && want < 1.0) as u32;
 }
 
 /// Eight shadow rays at once through the lights' buffers get the answers of testing
@@ -172,7 +186,7 @@ fn spheres_regrouped_by_cell_get_the_answers_of_testing_everything() {
             assert!(made > 20, "seed {seed}: light {k}'s cells made {made} packs");
         }
         let entries = bvh.leaves.len() as u32;
-        let (mut last, mut blocked, mut through) = (LastBlocker::default(), 0, 0);
+        let (mut last, mut seen) = (LastBlocker::default(), (0, 0));
         for i in 0..30_000u32 {
             let k = (i / 64) as usize % lights.len();
             if i % 64 == 0 {
@@ -187,17 +201,12 @@ fn spheres_regrouped_by_cell_get_the_answers_of_testing_everything() {
                 2 => Vec3::new(0.0, 2.0, 0.0) + v(&mut r, 2.0),
                 _ => v(&mut r, 30.0),
             };
-            let ray = Ray::new(from, lights[k] - from);
-            let t_max = (lights[k] - from).length();
-            let want = brute.transmittance(&ray, t_max);
-            assert_eq!(bvh.transmittance_towards(k, &ray, t_max, &mut last), want, "seed {seed}, ray {i}");
-            blocked += (want == 0.0) as u32;
-            through += (want > 0.0 && want < 1.0) as u32;
+            agrees(&bvh, &brute, (k, lights[k]), from, &mut last, &mut seen, &format!("seed {seed}, ray {i}"));
             if i % 7 == 0 {
                 last = LastBlocker::at(r.below(entries));
             }
         }
-        assert!(blocked > 3000 && through > 300, "seed {seed}: {blocked} blocked, {through} through glass");
+        assert!(seen.0 > 3000 && seen.1 > 300, "seed {seed}: {seen:?} blocked and through glass");
     }
 }
 
