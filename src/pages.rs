@@ -99,6 +99,10 @@ impl<T: PartialEq> PartialEq for Zeroed<T> {
 
 /// An empty vector with room for `n`, its memory advised for huge pages if it is big:
 /// fill it without growing it past `n`, which would move it to memory not so advised.
+pub fn with_capacity<T>(n: usize) -> Vec<T> {
+    advised(Vec::with_capacity(n))
+}
+
 /// Room for `n` values, on huge pages from half a huge page up (rounded up to a whole
 /// one): a megabyte written at once costs one huge page's fault, not 256 small ones
 /// (about 2 µs each on this project's hosts).
@@ -108,10 +112,6 @@ pub fn with_capacity_rounded<T>(n: usize) -> Vec<T> {
         true => advised(Vec::with_capacity(room_for::<T>(n.max(HUGE / size)))),
         false => Vec::with_capacity(n),
     }
-}
-
-pub fn with_capacity<T>(n: usize) -> Vec<T> {
-    advised(Vec::with_capacity(n))
 }
 
 /// Room for `n` values, rounded up for a big array to fill whole huge pages with its

@@ -8,7 +8,8 @@
 //!
 //! Every entry that may lie along the segment is in the list (the cells an entry's box
 //! covers are worked out conservatively), and each is tested as the walk tests it
-//! ([`World::leaf_stops`]), so the answer is the walk's.
+//! ([`World::leaf_stops`]), so the answer is the walk's. Where spheres are small beside
+//! the cells, a cell lists packs of its own spheres in place of the tree's ([`regroup`]).
 
 mod regroup;
 
