@@ -99,19 +99,11 @@ impl<T: PartialEq> PartialEq for Zeroed<T> {
 
 /// An empty vector with room for `n`, its memory advised for huge pages if it is big:
 /// fill it without growing it past `n`, which would move it to memory not so advised.
+/// Its first huge page stays on 4 KiB pages: the allocator writes its header there
+/// before the advice, and a huge page is only given to a range nothing has touched
+/// (so an array of one huge page or less gains nothing from it, whatever its rounding).
 pub fn with_capacity<T>(n: usize) -> Vec<T> {
     advised(Vec::with_capacity(n))
-}
-
-/// Room for `n` values, on huge pages from half a huge page up (rounded up to a whole
-/// one): a megabyte written at once costs one huge page's fault, not 256 small ones
-/// (about 2 µs each on this project's hosts).
-pub fn with_capacity_rounded<T>(n: usize) -> Vec<T> {
-    let size = std::mem::size_of::<T>().max(1);
-    match n * size >= HUGE / 2 {
-        true => advised(Vec::with_capacity(room_for::<T>(n.max(HUGE / size)))),
-        false => Vec::with_capacity(n),
-    }
 }
 
 /// Room for `n` values, rounded up for a big array to fill whole huge pages with its

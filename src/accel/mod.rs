@@ -370,7 +370,7 @@ impl<'s> World<'s> {
         let leaves = match packs {
             0 => crate::pages::on_huge_pages(leaves),
             _ => {
-                let mut all = crate::pages::with_capacity_rounded(leaves.len() + packs);
+                let mut all = crate::pages::with_capacity(leaves.len() + packs);
                 all.extend_from_slice(&leaves);
                 for buffer in light_buffers.iter_mut().flatten() {
                     let plan = buffer.place_packs(all.len() as u32);
