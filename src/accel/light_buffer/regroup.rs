@@ -173,23 +173,25 @@ pub(super) fn regroup(
     if pairs > MAX_CELLS_A_SPHERE * placed {
         return Plan::default();
     }
-    // Calls `f` with the place among the candidates of each candidate cell of a span.
-    let each_candidate = |span: &Span, f: &mut dyn FnMut(usize)| {
+    // Each span's candidate cells (their places among the candidates), found once by a
+    // search in each of its rows, for the count here and the slots below.
+    let (mut met, mut ends) = (Vec::with_capacity(spans.len() * 2), Vec::with_capacity(spans.len()));
+    for span in &spans {
         let ([u0, u1], [v0, v1]) = (span.us.map(u32::from), span.vs.map(u32::from));
         for u in u0..=u1 {
             let row = (faces[span.face as usize] / n as u32 + u) as usize;
             let (first, last) = (rows[row] as usize, rows[row + 1] as usize);
             let base = row as u32 * n as u32;
             let from = first + candidates[first..last].partition_point(|&c| c < base + v0);
-            for (k, _) in candidates[from..last].iter().enumerate().take_while(|(_, c)| **c <= base + v1) {
-                f(from + k);
-            }
+            let within = candidates[from..last].iter().take_while(|&&c| c <= base + v1).count();
+            met.extend(from as u32..(from + within) as u32);
         }
-    };
+        ends.push(met.len() as u32);
+    }
     // Each candidate's spheres counted.
     let mut count = vec![0u32; candidates.len()];
-    for span in &spans {
-        each_candidate(span, &mut |k| count[k] += 1);
+    for &k in &met {
+        count[k as usize] += 1;
     }
     // The cells to regroup, each given its place among the spheres' slots.
     let (mut chosen, mut slots) = (Vec::with_capacity(candidates.len()), 0u32);
@@ -204,13 +206,16 @@ pub(super) fn regroup(
         }
     }
     let mut slot = vec![0u32; slots as usize];
-    for span in &spans {
-        each_candidate(span, &mut |k| {
+    let mut from = 0;
+    for (span, &end) in spans.iter().zip(&ends) {
+        for &k in &met[from..end as usize] {
+            let k = k as usize;
             if count[k] != SKIP {
                 slot[count[k] as usize] = span.k;
                 count[k] += 1;
             }
-        });
+        }
+        from = end as usize;
     }
     // Each chosen cell's spheres packed. A cell with the same spheres as the chosen cell
     // before it in its row, or above it, shares its packs (large spheres cover many
