@@ -372,10 +372,19 @@ impl<'s> World<'s> {
             _ => {
                 let mut all = crate::pages::with_capacity(leaves.len() + packs);
                 all.extend_from_slice(&leaves);
+                let mut plans = Vec::with_capacity(light_buffers.len());
+                let mut base = all.len();
                 for buffer in light_buffers.iter_mut().flatten() {
-                    let plan = buffer.place_packs(all.len() as u32);
-                    all.extend(plan.packs(&members));
+                    let plan = buffer.place_packs(base as u32);
+                    base += plan.len();
+                    plans.push(plan);
                 }
+                // Made on every thread, each pack into its place (an indexed parallel
+                // extension writes where it collects), the fresh pages faulted in by each.
+                let of: Vec<(usize, usize)> =
+                    plans.iter().enumerate().flat_map(|(p, plan)| (0..plan.len()).map(move |k| (p, k))).collect();
+                use rayon::prelude::*;
+                all.par_extend(of.par_iter().map(|&(p, k)| plans[p].pack(k, &members)));
                 all
             }
         };

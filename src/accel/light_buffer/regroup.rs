@@ -53,15 +53,16 @@ impl Plan {
         self.ends.len()
     }
 
-    /// The packs, one after another, made of `members`' spheres.
-    pub(in crate::accel) fn packs<'a>(&'a self, members: &'a Members) -> impl Iterator<Item = LeafItem> + 'a {
-        let mut pack = Vec::with_capacity(members.width);
-        (0..self.ends.len()).map(move |k| {
-            let from = if k == 0 { 0 } else { self.ends[k - 1] as usize };
-            pack.clear();
-            pack.extend(self.spheres[from..self.ends[k] as usize].iter().map(|&i| members.spheres[i as usize]));
-            (members.pack)(&pack)
-        })
+    /// Pack `k`, made of `members`' spheres.
+    pub(in crate::accel) fn pack(&self, k: usize, members: &Members) -> LeafItem {
+        let from = if k == 0 { 0 } else { self.ends[k - 1] as usize };
+        let run = &self.spheres[from..self.ends[k] as usize];
+        // (A run holds at most `members.width` spheres, 4 or 8.)
+        let mut pack = [members.spheres[0]; 8];
+        for (slot, &i) in pack.iter_mut().zip(run) {
+            *slot = members.spheres[i as usize];
+        }
+        (members.pack)(&pack[..run.len()])
     }
 }
 
