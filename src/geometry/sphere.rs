@@ -24,10 +24,6 @@ pub fn hits<L: Lanes>(o: V3<L>, d: V3<L>, center: V3<L>, radius: L, t_min: L, t_
     let disc = r2 - dot(perp, perp);
     // A NaN discriminant is no hit here, as its NaN roots would be none below.
     let real = disc.ge(L::splat(0.0));
-    if L::bits(real) == 0 {
-        // Most tests in a cloud miss every sphere: skip the root and the division.
-        return (real, L::splat(0.0));
-    }
     let c = dot(oc, oc) - r2;
     // From outside a sphere that lies behind it (c > 0, b > 0) both roots are negative,
     // as computed below (q < 0, c / q < 0), so none is past a `t_min` of zero or more:
@@ -36,6 +32,8 @@ pub fn hits<L: Lanes>(o: V3<L>, d: V3<L>, center: V3<L>, radius: L, t_min: L, t_
     // not needed. The same answer, sooner.
     let zero = L::splat(0.0);
     let behind = c.gt(zero) & b.gt(zero) & t_min.ge(zero);
+    // Most tests in a cloud miss every sphere: the root and the division skipped then
+    // too, by the same test (one branch, not two, each a coin toss to the predictor).
     if L::bits(real) & !L::bits(behind) == 0 {
         return (zero.lt(zero), zero); // no lane hits
     }
