@@ -294,7 +294,7 @@ impl World<'_> {
             if let Some(mesh) = self.plain_mesh(i as usize) {
                 blocked = mesh.occluded_lanes(&ray, t_max, live);
             } else if !self.eight_lanes(i, wide, live, &mut best) {
-                for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                for lane in crate::math::lanes::set_lanes(live) {
                     blocked |= (self.blocks(i as usize, &ray(lane), t_max[lane]) as u32) << lane;
                 }
             }

@@ -322,7 +322,7 @@ fn lane_rays(ray: impl Fn(usize) -> Ray, live: u32) -> Option<[Ray; 8]> {
 #[inline(always)]
 fn in_groups(live: u32, size: usize, mut f: impl FnMut(&[usize])) {
     let (mut lanes, mut n) = ([0usize; 8], 0);
-    for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+    for lane in crate::math::lanes::set_lanes(live) {
         (lanes[n], n) = (lane, n + 1);
     }
     let mut groups = lanes[..n].chunks_exact(size);

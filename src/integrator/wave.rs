@@ -170,7 +170,8 @@ impl Wave {
                 // others' is 0): without a branch a lane, for the lanes to go together.
                 let falloff: [f32; 8] = std::array::from_fn(|lane| {
                     let falloff = light.falloff(lane_of(&seen.l, lane), seen.distance[lane]);
-                    if seen.n_dot_l[lane] > 0.0 && lane < *lanes { falloff } else { 0.0 }
+                    let front = (seen.n_dot_l[lane] > 0.0) & (lane < *lanes);
+                    std::hint::select_unpredictable(front, falloff, 0.0)
                 });
                 let live = (0..8).fold(0u32, |live, lane| live | ((falloff[lane] > 0.0) as u32) << lane);
                 // The objects the rays leave, on the light's side where shading is two-sided.
@@ -178,10 +179,9 @@ impl Wave {
                 let rays = ShadowLanes { from, dirs: &seen.l, t_max: seen.distance, live, leaving };
                 let visible = visible_lanes(world, index, blockers, &rays, &mut last);
                 stats.shadow += u64::from(live.count_ones());
-                for (lane, &k) in nodes.iter().enumerate() {
-                    if live >> lane & 1 == 0 {
-                        continue; // the light is behind the surface, or no hit
-                    }
+                // The lanes lit: not those behind their surfaces, nor those past the block.
+                for lane in crate::math::lanes::set_lanes(live) {
+                    let k = nodes[lane];
                     let material = integrator.material(objects[lane]);
                     let l = lane_of(&seen.l, lane);
                     // Through absorbing glass the light takes its colour, ray by ray.
@@ -310,14 +310,14 @@ fn visible_lanes(
         None => {
             // The live lanes' rays, side by side, then their answers back in lane.
             let (mut packed, mut n) = ([(Ray { origin: Vec3::ZERO, dir: Vec3::Z }, 0.0); 8], 0);
-            for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+            for lane in crate::math::lanes::set_lanes(live) {
                 let shadow = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
                 (packed[n], n) = ((shadow, t_max[lane]), n + 1);
             }
             let mut light = [0.0; 8];
             world.transmittance_each(&packed[..n], &mut light[..n]);
             let mut visible = [0.0; 8];
-            for (lane, light) in (0..8).filter(|lane| live >> lane & 1 != 0).zip(light) {
+            for (lane, light) in crate::math::lanes::set_lanes(live).zip(light) {
                 visible[lane] = light;
             }
             visible

@@ -136,6 +136,20 @@ impl Lanes for Vec4 {
 /// Three lanes-wide numbers: a vector per lane, axis by axis.
 pub type V3<L> = [L; 3];
 
+/// The lanes a bit mask selects (its set bits), lowest first, one step each: a loop
+/// over all eight lanes that skips the others branches on each lane's bit, which the
+/// branch predictor cannot guess where lanes come and go with the data.
+#[inline(always)]
+pub fn set_lanes(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            lane
+        })
+    })
+}
+
 /// glam's `Vec3::dot`, `(x·x') + (y·y') + (z·z')`, left to right.
 #[inline(always)]
 pub fn dot<L: Lanes>(a: V3<L>, b: V3<L>) -> L {
@@ -290,6 +304,17 @@ pub(crate) mod tests {
         let bits = [x + y, x - y, x * y, x / y, -x, x.sqrt(), x.abs(), x.copysign(y)].map(f32::to_bits);
         let masks = [x.lt(y), x.le(y), x.gt(y), x.ge(y), Lanes::ne(x, y)];
         (bits, masks, <f32 as Lanes>::select(x.lt(y), x, y).to_bits())
+    }
+
+    /// `set_lanes` gives each set bit's lane once, lowest first, and nothing else.
+    #[test]
+    fn set_lanes_are_the_set_bits_in_order() {
+        for mask in 0..=0xffu32 {
+            let got: Vec<usize> = set_lanes(mask).collect();
+            let want: Vec<usize> = (0..8).filter(|k| mask >> k & 1 != 0).collect();
+            assert_eq!(got, want, "{mask:#b}");
+        }
+        assert_eq!(set_lanes(1 << 31).collect::<Vec<_>>(), [31]);
     }
 
     /// Every operation of the wide lane types, lane by lane, is the `f32` one bit for bit

@@ -558,7 +558,7 @@ impl World<'_> {
         let buffer = match self.light_buffers.get(light) {
             Some(Some(buffer)) => buffer,
             _ => {
-                for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+                for lane in crate::math::lanes::set_lanes(live) {
                     let ray = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
                     visible[lane] = self.transmittance_hinted(&ray, t_max[lane], blocker);
                 }
@@ -589,7 +589,7 @@ impl World<'_> {
         let ShadowLanes { from, dirs, t_max, live, leaving } = *rays;
         let words = buffer.words_of_lanes(from);
         let mut visible = [0.0; 8];
-        for lane in (0..8).filter(|lane| live >> lane & 1 != 0) {
+        for lane in crate::math::lanes::set_lanes(live) {
             let ray = Ray { origin: lane_of(from, lane), dir: lane_of(dirs, lane) };
             visible[lane] = match buffer.list_of(words[lane]) {
                 Some(list) => {
