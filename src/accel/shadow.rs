@@ -2,7 +2,7 @@
 //! batches.
 
 use super::tri4::Ray4;
-use super::{LeafItem, Visit, World};
+use super::{Inline, LeafItem, Visit, World};
 use crate::math::Ray;
 
 /// The leaf entry that blocked the last of a run of shadow rays (a light's, from one
@@ -195,6 +195,33 @@ impl World<'_> {
         };
         if stops {
             blocker.0 = at as u32;
+        }
+        stops
+    }
+
+    /// [`World::leaf_stops_noted`] for entry `at` of a light buffer's list, with one
+    /// match on the entry's kind: a pack of eight spheres (most entries) tested there,
+    /// and a flat object (a quad or a triangle) that the ray leaves, `leaving`, skipped,
+    /// as a ray that leaves its surface on the side of its light stays on that side of
+    /// its plane. Matched once, not in a test for the flat object, one for a mesh and one
+    /// for the test: each such match is a branch the predictor misses where kinds mix.
+    #[inline(always)]
+    pub(super) fn entry_stops_noted(
+        &self,
+        at: usize,
+        ray: &Ray,
+        t_max: f32,
+        light: &mut f64,
+        blocker: &mut LastBlocker,
+        leaving: u32,
+    ) -> bool {
+        let stops = match self.leaves[at] {
+            LeafItem::Spheres8(ref pack) => self.pass_through(self.spheres8(pack, ray, 0.0, t_max).0, &pack.ids, light),
+            LeafItem::Inline(Inline::Quad(_) | Inline::Triangle(_), i) if i == leaving => return false,
+            _ => return self.leaf_stops_noted(at, ray, t_max, light, blocker),
+        };
+        if stops {
+            *blocker = LastBlocker(at as u32, 0, 0);
         }
         stops
     }

@@ -15,7 +15,7 @@ mod regroup;
 
 pub(super) use regroup::{Members, Plan};
 
-use super::{Inline, LastBlocker, LeafItem, NONE, ShadowLanes, World};
+use super::{LastBlocker, NONE, ShadowLanes, World};
 use crate::light::Light;
 use crate::math::{Aabb, Ray, Vec3};
 
@@ -635,10 +635,7 @@ impl World<'_> {
             if near > limit {
                 break;
             }
-            if self.flat_and(at as usize, leaving) {
-                continue;
-            }
-            if self.leaf_stops_noted(at as usize, ray, t_max, &mut light, blocker) {
+            if self.entry_stops_noted(at as usize, ray, t_max, &mut light, blocker, leaving) {
                 return 0.0;
             }
         }
@@ -659,17 +656,11 @@ impl World<'_> {
     fn list_avx2(&self, list: &[(u32, f32)], ray: &Ray, t_max: f32, blocker: &mut LastBlocker, leaving: u32) -> f32 {
         self.list(list, ray, t_max, blocker, leaving)
     }
-
-    /// Whether leaf entry `at` is flat object `object` (a quad or a triangle): a ray
-    /// that leaves its surface on the side of its light stays on that side of its plane.
-    #[inline(always)]
-    fn flat_and(&self, at: usize, object: u32) -> bool {
-        matches!(self.leaves[at], LeafItem::Inline(Inline::Quad(_) | Inline::Triangle(_), i) if i == object)
-    }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::LeafItem;
     use super::*;
 
     /// Each cell lists what lies in its directions, nearest the light first, whether its
