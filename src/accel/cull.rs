@@ -6,7 +6,7 @@
 use super::lanes::Best8;
 #[cfg(target_arch = "x86_64")]
 use super::packet8;
-use super::{AccelKind, NONE, World};
+use super::{NONE, World};
 use crate::geometry::{Hit, Shape};
 use crate::math::{Aabb, Ray, Vec2, Vec3};
 use glam::DVec3;
@@ -35,13 +35,50 @@ const CONE_MAX_OBJECTS: usize = 64;
 /// ...and worth it while a tile sees few of them: past this the tree does better.
 const CONE_MAX_SEEN: usize = 6;
 
+/// Whether `scene` is small enough for its objects to be culled per group of rays.
+pub(super) fn small(scene: &crate::scene::Scene) -> bool {
+    scene.objects.len() <= CONE_MAX_OBJECTS
+}
+
+/// An object's bounds as the culling tests use them, worked out once per world: its box,
+/// that box in f64 widened by 1e-3 (relative) to cover the rounding of the f32 tests, and
+/// the sphere round the widened box.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct CullBounds {
+    b: Aabb,
+    lo: DVec3,
+    hi: DVec3,
+    centre: DVec3,
+    radius: f64,
+}
+
+impl CullBounds {
+    pub(super) fn of(b: Aabb) -> Self {
+        let (lo, hi) = margin(b);
+        let (centre, radius) = sphere((lo, hi));
+        CullBounds { b, lo, hi, centre, radius }
+    }
+}
+
+/// Box `b` in f64, widened by 1e-3 (relative) for rounding.
+fn margin(b: Aabb) -> (DVec3, DVec3) {
+    let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
+    let m = 1e-3 * (1.0 + lo.abs().max(hi.abs()).max_element());
+    (lo - m, hi + m)
+}
+
+/// The centre and radius of the sphere round a box.
+fn sphere((lo, hi): (DVec3, DVec3)) -> (DVec3, f64) {
+    ((lo + hi) * 0.5, (hi - lo).length() * 0.5)
+}
+
 impl World<'_> {
     /// Whether groups of rays may be tested against only the objects they may meet
     /// ([`World::seen_from`], [`World::seen_along`], [`World::may_shadow`]): in a small
     /// scene with a tree asked for. In a large one the tree does better.
     #[inline]
     pub fn culls(&self) -> bool {
-        self.kind == AccelKind::Bvh && self.scene.objects.len() <= CONE_MAX_OBJECTS
+        !self.cull.is_empty()
     }
 
     /// The objects whose boxes meet the cone of rays from `apex` within the four edge
@@ -63,8 +100,8 @@ impl World<'_> {
             if n.dot(axis) < 0.0 { -n } else { n }
         });
         let apex = apex.as_dvec3();
-        for (i, o) in self.scene.objects.iter().enumerate() {
-            let b = o.shape.bounds();
+        for (i, o) in self.cull.iter().enumerate() {
+            let b = o.b;
             let (centre, half) = ((b.min + b.max).as_dvec3() * 0.5 - apex, (b.max - b.min).as_dvec3() * 0.5);
             // Wholly behind one side: no ray of the cone reaches it. (NaN keeps it.)
             if !sides.iter().any(|n| n.dot(centre) + n.abs().dot(half) < 0.0) {
@@ -101,11 +138,7 @@ impl World<'_> {
         if !(o_lo.is_finite() && o_hi.is_finite() && d_lo.is_finite() && d_hi.is_finite()) {
             return false;
         }
-        for (i, object) in self.scene.objects.iter().enumerate() {
-            let b = object.shape.bounds();
-            let (b_lo, b_hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-            let m = 1e-3 * (1.0 + b_lo.abs().max(b_hi.abs()).max_element());
-            let (b_lo, b_hi) = (b_lo - m, b_hi + m);
+        for (i, &CullBounds { lo: b_lo, hi: b_hi, .. }) in self.cull.iter().enumerate() {
             // NaN bounds keep the object.
             let (mut enter, mut leave) = (0.0f64, f64::INFINITY);
             for k in 0..3 {
@@ -141,12 +174,6 @@ impl World<'_> {
         if !self.culls() {
             return false;
         }
-        let margin = |b: Aabb| {
-            let (lo, hi) = (b.min.as_dvec3(), b.max.as_dvec3());
-            let m = 1e-3 * (1.0 + lo.abs().max(hi.abs()).max_element());
-            (lo - m, hi + m)
-        };
-        let sphere = |(lo, hi): (DVec3, DVec3)| ((lo + hi) * 0.5, (hi - lo).length() * 0.5);
         let union = |skip: Option<u32>| {
             from.iter().filter(|(o, _)| Some(*o) != skip).fold(Aabb::EMPTY, |b, (_, p)| b.union(*p))
         };
@@ -158,8 +185,24 @@ impl World<'_> {
         if !(radius.is_finite() && reach.is_finite() && radius < 0.9 * reach) {
             return false;
         }
-        let spread = (radius / reach).asin();
+        // The cone's half angle, with 1e-3 for rounding, as its cosine and sine: an
+        // object's sphere meets the cone when the angle between its centre and the axis
+        // is at most that plus the angle the sphere spans, compared here as cosines
+        // (both angles lie in [0, pi), where the cosine falls).
+        let spread = (radius / reach).asin() + 1e-3;
+        let (sin_spread, cos_spread) = spread.sin_cos();
         for (i, o) in self.scene.objects.iter().enumerate() {
+            let CullBounds { centre: c, radius: r, .. } = self.cull[i];
+            let v = c - light;
+            let e = v.length();
+            let near = !(r.is_finite() && e.is_finite()) || e <= r;
+            if !near {
+                let (sin_span, cos_span) = (r / e, (1.0 - (r / e) * (r / e)).sqrt());
+                let cos_angle = (v.dot(axis) / (e * reach)).clamp(-1.0, 1.0);
+                if e - r > reach + radius || cos_angle < cos_spread * cos_span - sin_spread * sin_span {
+                    continue;
+                }
+            }
             if let Shape::Quad(q) = &o.shape {
                 let (normal, d) = q.plane();
                 let (n, d) = (normal.as_dvec3(), d as f64);
@@ -174,21 +217,10 @@ impl World<'_> {
                     continue;
                 }
             }
-            let (c, r) = sphere(margin(o.shape.bounds()));
-            let v = c - light;
-            let e = v.length();
-            let blocks = if !(r.is_finite() && e.is_finite()) || e <= r {
-                true
-            } else {
-                let angle = (v.dot(axis) / (e * reach)).clamp(-1.0, 1.0).acos();
-                e - r <= reach + radius && angle <= spread + (r / e).asin() + 1e-3
-            };
-            if blocks {
-                if blockers.len() == CONE_MAX_SEEN {
-                    return false;
-                }
-                blockers.push(i as u32);
+            if blockers.len() == CONE_MAX_SEEN {
+                return false;
             }
+            blockers.push(i as u32);
         }
         true
     }

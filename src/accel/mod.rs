@@ -211,6 +211,9 @@ pub struct World<'s> {
     avx2: bool,
     /// Per light of the scene, its light buffer where it has one.
     light_buffers: Vec<Option<light_buffer::LightBuffer>>,
+    /// Per object, the bounds the culling of a small scene tests (empty where it
+    /// does not cull): worked out once here, not in every test of every tile.
+    cull: Vec<cull::CullBounds>,
 }
 
 impl<'s> World<'s> {
@@ -388,6 +391,10 @@ impl<'s> World<'s> {
                 all
             }
         };
+        let cull = match kind == AccelKind::Bvh && cull::small(scene) {
+            true => scene.objects.iter().map(|o| cull::CullBounds::of(o.shape.bounds())).collect(),
+            false => Vec::new(),
+        };
         World {
             scene,
             kind,
@@ -401,6 +408,7 @@ impl<'s> World<'s> {
             flat,
             avx2,
             light_buffers,
+            cull,
         }
     }
 
